@@ -1,0 +1,29 @@
+//! treecut: a multi-resolution hierarchy, the cut through it, and a budgeted evaluator.
+//!
+//! A [`Hierarchy`] is built once (from a regular grid or any triangle mesh) and never changes. A
+//! [`Cut`] is the set of active nodes: every finest-level vertex is represented by exactly one of
+//! them. [`Cut::refine`] replaces a node by its children, [`Cut::coarse`] replaces children by
+//! their parent, both in O(fanout). The [`Evaluator`] turns a priority per active node into a batch
+//! of those operations that best spends a [`Budget`], with hysteresis so that nothing flickers.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+mod build;
+mod cut;
+mod error;
+mod evaluator;
+mod grid;
+mod hierarchy;
+mod id;
+mod mesh;
+
+pub use cut::Cut;
+pub use error::{BuildError, CutError, EvalError, InvariantError};
+pub use evaluator::{Budget, Evaluator, EvaluatorSettings, Op};
+pub use grid::GridSpec;
+pub use hierarchy::Hierarchy;
+pub use mesh::DEFAULT_AREAL_DENSITY;
+pub use id::{NodeId, NodeRange};
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,314 @@
+//! Property tests over random grids, meshes and operation sequences.
+
+use glam::Vec3;
+use proptest::prelude::*;
+
+use crate::*;
+
+/// A jittered grid triangulated with a random diagonal per quad, as a general triangle mesh.
+fn mesh(cols: u32, rows: u32, seed: u64) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut s = seed | 1;
+    let mut rnd = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f32 / (1u64 << 53) as f32
+    };
+    let mut p = Vec::new();
+    for j in 0..rows {
+        for i in 0..cols {
+            p.push(Vec3::new(i as f32 + 0.3 * rnd(), 0.2 * rnd(), j as f32 + 0.3 * rnd()));
+        }
+    }
+    let mut t = Vec::new();
+    for j in 0..rows - 1 {
+        for i in 0..cols - 1 {
+            let a = j * cols + i;
+            let (b, c, d) = (a + 1, a + cols, a + cols + 1);
+            if rnd() < 0.5 {
+                t.push([a, b, d]);
+                t.push([a, d, c]);
+            } else {
+                t.push([a, b, c]);
+                t.push([b, d, c]);
+            }
+        }
+    }
+    (p, t)
+}
+
+fn hierarchy(kind: bool, cols: u32, rows: u32, seed: u64) -> Hierarchy {
+    if kind {
+        Hierarchy::grid(&GridSpec::horizontal(cols, rows, 0.1, 2.0)).unwrap()
+    } else {
+        let (p, t) = mesh(cols.max(2), rows.max(2), seed);
+        Hierarchy::from_mesh(&p, &t, None).unwrap()
+    }
+}
+
+fn sorted(c: &Cut) -> Vec<NodeId> {
+    let mut a = c.active().to_vec();
+    a.sort();
+    a
+}
+
+/// Applies a pseudo-random refine or coarse (or a refused one) and checks what must hold.
+fn random_op(h: &Hierarchy, cut: &mut Cut, pick: usize, refine: bool) {
+    let n = NodeId::new(pick % h.len());
+    let before = cut.clone();
+    let r = if refine { cut.refine(h, n) } else { cut.coarse(h, n) };
+    if r.is_err() {
+        assert_eq!(*cut, before, "refused {n:?} changed the cut: {r:?}");
+    } else {
+        // coarse(refine(n)) and refine(coarse(p)) restore the set of active nodes.
+        let mut undo = cut.clone();
+        if refine {
+            undo.coarse(h, n).unwrap();
+        } else {
+            undo.refine(h, n).unwrap();
+        }
+        assert_eq!(sorted(&undo), sorted(&before));
+    }
+    cut.check_invariant(h).unwrap();
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    #[test]
+    fn cut_invariant_under_random_ops(
+        grid in any::<bool>(), cols in 1u32..24, rows in 1u32..24, seed in any::<u64>(),
+        ops in proptest::collection::vec((any::<usize>(), any::<bool>(), any::<bool>()), 1..200),
+    ) {
+        let h = hierarchy(grid, cols, rows, seed);
+        let mut cut = Cut::root(&h);
+        cut.check_invariant(&h).unwrap();
+        for (pick, refine, lock) in ops {
+            random_op(&h, &mut cut, pick, refine);
+            if lock {
+                let n = cut.active()[pick % cut.len()];
+                cut.lock(n);
+                let before = cut.clone();
+                if !h.is_leaf(n) {
+                    prop_assert_eq!(cut.refine(&h, n), Err(CutError::Locked(n)));
+                }
+                if let Some(p) = h.parent(n) {
+                    prop_assert!(cut.coarse(&h, p).is_err());
+                }
+                prop_assert_eq!(&cut, &before);
+                cut.unlock(n).unwrap();
+            }
+        }
+    }
+
+    #[test]
+    fn masses_and_centroids_hold_at_every_level(
+        grid in any::<bool>(), cols in 2u32..30, rows in 2u32..30, seed in any::<u64>(),
+    ) {
+        let h = hierarchy(grid, cols, rows, seed);
+        for level in 0..h.level_count() {
+            let total: f64 = h.nodes_at_level(level).map(|n| h.mass(n) as f64).sum();
+            let leaves: f64 = h.nodes_at_level(0).map(|n| h.mass(n) as f64).sum();
+            prop_assert!((total - leaves).abs() <= 1e-5 * leaves);
+            let covered: usize = h.nodes_at_level(level).map(|n| h.vertices(n).len()).sum();
+            prop_assert_eq!(covered, h.vertex_count());
+        }
+        for n in (0..h.len()).map(NodeId::new).filter(|&n| !h.is_leaf(n)) {
+            let kids = h.children(n);
+            prop_assert!(kids.len() >= 2, "{:?} has a single child", n);
+            let m: f32 = kids.map(|k| h.mass(k)).sum();
+            prop_assert!((m - h.mass(n)).abs() <= 1e-5 * m);
+            let c = kids.fold(Vec3::ZERO, |a, k| a + h.rest_position(k) * h.mass(k)) / m;
+            prop_assert!(c.distance(h.rest_position(n)) <= 1e-4 * (1.0 + c.length()));
+            for k in kids {
+                prop_assert_eq!(h.parent(k), Some(n));
+                prop_assert_eq!(h.level(k) + 1, h.level(n));
+            }
+            // Vertex runs of the children tile the parent's.
+            let run: Vec<u32> = kids.flat_map(|k| h.vertices(k).to_vec()).collect();
+            prop_assert_eq!(run.as_slice(), h.vertices(n));
+        }
+    }
+
+    #[test]
+    fn adjacency_matches_brute_force(
+        grid in any::<bool>(), cols in 2u32..12, rows in 2u32..12, seed in any::<u64>(),
+        a in any::<usize>(), b in any::<usize>(),
+    ) {
+        let h = hierarchy(grid, cols, rows, seed);
+        let (a, b) = (NodeId::new(a % h.len()), NodeId::new(b % h.len()));
+        let disjoint = !h.is_ancestor_or_self(a, b) && !h.is_ancestor_or_self(b, a);
+        let brute = disjoint && h.leaf_edges().iter().any(|&[u, v]| {
+            let (ua, va) = (h.vertices(a).contains(&u), h.vertices(a).contains(&v));
+            let (ub, vb) = (h.vertices(b).contains(&u), h.vertices(b).contains(&v));
+            (ua && vb) || (va && ub)
+        });
+        prop_assert_eq!(h.adjacent(a, b), brute);
+        prop_assert_eq!(h.adjacent(b, a), brute);
+    }
+
+    #[test]
+    fn evaluator_respects_budget_cap_and_locks(
+        grid in any::<bool>(), cols in 2u32..30, rows in 2u32..30, seed in any::<u64>(),
+        budget in 1usize..900, max_ops in 1usize..40, rounds in 1usize..12,
+        use_cost in any::<bool>(),
+    ) {
+        let h = hierarchy(grid, cols, rows, seed);
+        let mut cut = Cut::root(&h);
+        let mut ev = Evaluator::new(EvaluatorSettings { hysteresis: 0.05, max_ops });
+        let costs: Vec<f32> = (0..h.len()).map(|i| 1.0 + (i % 3) as f32).collect();
+        let limit = budget as f32 * 1.5;
+        for r in 0..rounds {
+            let prio: Vec<f32> = (0..h.len())
+                .map(|i| ((i as u64 * 2654435761 + seed + r as u64 * 97) % 1000) as f32 / 1000.0)
+                .collect();
+            // Lock a few active nodes: the evaluator must never touch them.
+            let locked: Vec<NodeId> = cut.active().iter().copied().step_by(7).collect();
+            for &n in &locked { cut.lock(n); }
+            let spend = |c: &Cut| -> f32 {
+                if use_cost { c.active().iter().map(|n| costs[n.index()]).sum() } else { c.len() as f32 }
+            };
+            let before = spend(&cut);
+            let b = if use_cost { Budget::Cost { limit } } else { Budget::Nodes(budget) };
+            let lim = if use_cost { limit } else { budget as f32 };
+            let ops = ev.evaluate(&h, &cut, &prio, Some(&costs), b).unwrap().to_vec();
+            prop_assert!(ops.len() <= max_ops);
+            for op in &ops {
+                match *op {
+                    Op::Refine(n) => {
+                        prop_assert!(!cut.is_locked(n));
+                        cut.refine(&h, n).unwrap();
+                    }
+                    Op::Coarse(p) => {
+                        prop_assert!(!cut.is_locked(p));
+                        prop_assert!(h.children(p).all(|k| !cut.is_locked(k)));
+                        cut.coarse(&h, p).unwrap();
+                    }
+                }
+            }
+            cut.check_invariant(&h).unwrap();
+            let after = spend(&cut);
+            if before <= lim + 1e-3 {
+                prop_assert!(after <= lim + 1e-3, "went over budget: {} -> {} > {}", before, after, lim);
+            } else {
+                prop_assert!(after <= before);
+            }
+            for &n in &locked { cut.unlock(n).unwrap(); }
+        }
+    }
+
+    #[test]
+    fn constant_priorities_converge_then_stop(
+        grid in any::<bool>(), cols in 2u32..40, rows in 2u32..40, seed in any::<u64>(),
+        budget in 1usize..2000, value in 0f32..1.0,
+    ) {
+        let h = hierarchy(grid, cols, rows, seed);
+        let mut cut = Cut::root(&h);
+        let mut ev = Evaluator::new(EvaluatorSettings { hysteresis: 0.0, max_ops: 16 });
+        let prio = vec![value; h.len()];
+        let mut quiet = false;
+        for _ in 0..h.len() + 2 {
+            let ops = ev.evaluate(&h, &cut, &prio, None, Budget::Nodes(budget)).unwrap().to_vec();
+            if ops.is_empty() { quiet = true; break; }
+            for op in ops {
+                match op {
+                    Op::Refine(n) => cut.refine(&h, n).unwrap(),
+                    Op::Coarse(p) => cut.coarse(&h, p).unwrap(),
+                }
+            }
+        }
+        prop_assert!(quiet, "never converged");
+        // Once quiet it stays quiet, and no further refine would have fitted.
+        prop_assert!(ev.evaluate(&h, &cut, &prio, None, Budget::Nodes(budget)).unwrap().is_empty());
+        prop_assert!(cut.len() <= budget.max(1));
+        let fits = cut.active().iter().any(|&n| !h.is_leaf(n) && cut.len() + h.child_count(n) - 1 <= budget);
+        prop_assert!(!fits, "stopped with room left");
+    }
+}
+
+#[test]
+fn swaps_need_to_beat_the_threshold() {
+    let h = Hierarchy::grid(&GridSpec::horizontal(9, 9, 1.0, 1.0)).unwrap();
+    let mut cut = Cut::uniform(&h, 1);
+    let budget = Budget::Nodes(cut.len());
+    let mut prio = vec![0.5f32; h.len()];
+    let hot = cut.active()[3];
+    prio[hot.index()] = 0.54;
+    let mut ev = Evaluator::new(EvaluatorSettings { hysteresis: 0.05, max_ops: 8 });
+    assert!(ev.evaluate(&h, &cut, &prio, None, budget).unwrap().is_empty());
+    prio[hot.index()] = 0.6;
+    let ops = ev.evaluate(&h, &cut, &prio, None, budget).unwrap().to_vec();
+    assert!(ops.contains(&Op::Refine(hot)), "{ops:?}");
+    for op in ops {
+        match op {
+            Op::Refine(n) => cut.refine(&h, n).unwrap(),
+            Op::Coarse(p) => cut.coarse(&h, p).unwrap(),
+        }
+    }
+    // Children inherit nothing: with their priorities at the field's value the cut stays put.
+    for k in h.children(hot) {
+        prio[k.index()] = 0.5;
+    }
+    assert!(ev.evaluate(&h, &cut, &prio, None, budget).unwrap().is_empty());
+}
+
+#[test]
+fn bad_meshes_are_refused() {
+    let p = [Vec3::ZERO, Vec3::X, Vec3::Z, Vec3::new(5.0, 0.0, 5.0)];
+    assert!(matches!(Hierarchy::from_mesh(&[], &[], None), Err(BuildError::Empty(_))));
+    assert!(matches!(Hierarchy::from_mesh(&p[..3], &[], None), Err(BuildError::Empty(_))));
+    assert!(matches!(
+        Hierarchy::from_mesh(&p[..3], &[[0, 1, 7]], None),
+        Err(BuildError::IndexOutOfRange { index: 7, .. })
+    ));
+    assert!(matches!(
+        Hierarchy::from_mesh(&[Vec3::NAN, Vec3::X, Vec3::Z], &[[0, 1, 2]], None),
+        Err(BuildError::NonFinitePosition(0))
+    ));
+    assert!(matches!(
+        Hierarchy::from_mesh(&p, &[[0, 1, 2]], None),
+        Err(BuildError::Disconnected { components: 2, example: 3 })
+    ));
+    assert!(matches!(
+        Hierarchy::from_mesh(&p[..3], &[[0, 1, 1]], None),
+        Err(BuildError::DegenerateTriangle(0))
+    ));
+    assert!(matches!(
+        Hierarchy::from_mesh(&p[..3], &[[0, 1, 2]], Some(&[1.0, -1.0, 1.0])),
+        Err(BuildError::InvalidMass { vertex: 1, .. })
+    ));
+    assert!(matches!(
+        Hierarchy::grid(&GridSpec { cols: 0, ..GridSpec::horizontal(3, 3, 1.0, 1.0) }),
+        Err(BuildError::BadGridSize { .. })
+    ));
+    assert!(matches!(
+        Hierarchy::grid(&GridSpec { v: Vec3::X, ..GridSpec::horizontal(3, 3, 1.0, 1.0) }),
+        Err(BuildError::BadGridAxes)
+    ));
+}
+
+#[test]
+fn odd_grids_have_no_single_child_and_levels_partition() {
+    for (c, r) in [(65, 65), (7, 3), (1, 9), (64, 31), (1, 1)] {
+        let h = Hierarchy::grid(&GridSpec::horizontal(c, r, 1.0, 1.0)).unwrap();
+        assert_eq!(h.vertex_count(), (c * r) as usize);
+        assert_eq!(h.nodes_at_level(h.level_count() - 1).len(), 1);
+        for l in 0..h.level_count() {
+            Cut::uniform(&h, l).check_invariant(&h).unwrap();
+        }
+        for n in (0..h.len()).map(NodeId::new) {
+            assert_ne!(h.child_count(n), 1);
+        }
+    }
+}
+
+#[test]
+fn from_nodes_checks_coverage() {
+    let h = Hierarchy::grid(&GridSpec::horizontal(5, 5, 1.0, 1.0)).unwrap();
+    let l1: Vec<NodeId> = h.nodes_at_level(1).collect();
+    assert!(Cut::from_nodes(&h, &l1).is_ok());
+    assert!(matches!(Cut::from_nodes(&h, &l1[1..]), Err(CutError::NotACut(_, 0))));
+    let mut twice = l1.clone();
+    twice.push(h.children(l1[0]).first().unwrap());
+    assert!(matches!(Cut::from_nodes(&h, &twice), Err(CutError::NotACut(_, 2))));
+}
