@@ -32,7 +32,10 @@ fn main() {
             *p = (-d * d / 0.02).exp();
         }
         let start = Instant::now();
-        let ops = ev.evaluate(&h, &cut, &prio, None, budget).expect("valid inputs").to_vec();
+        let ops = ev
+            .evaluate(&h, &cut, &prio, None, budget)
+            .expect("valid inputs")
+            .to_vec();
         eval_time += start.elapsed().as_secs_f64();
         let start = Instant::now();
         for op in &ops {

@@ -13,7 +13,10 @@ fn bench(c: &mut Criterion) {
         cut.refine(&h, n).unwrap();
     }
     let n = cut.len();
-    let mut ev = Evaluator::new(EvaluatorSettings { hysteresis: 0.02, max_ops: 64 });
+    let mut ev = Evaluator::new(EvaluatorSettings {
+        hysteresis: 0.02,
+        max_ops: 64,
+    });
     // Sixteen unrelated priority fields, cycled so every call sees all priorities changed.
     let fields: Vec<Vec<f32>> = (0..16u64)
         .map(|f| {

@@ -118,7 +118,9 @@ impl LevelStack {
 
         // Leaves in breadth-first order are a depth-first leaf order: every subtree is contiguous.
         let leaves = level_ranges[0];
-        let vertex_order: Vec<u32> = (leaves.start..leaves.end).map(|id| local[id as usize]).collect();
+        let vertex_order: Vec<u32> = (leaves.start..leaves.end)
+            .map(|id| local[id as usize])
+            .collect();
         let mut leaf_of_vertex = vec![NodeId(0); positions.len()];
         let mut rest_position = vec![Vec3::ZERO; total];
         let mut mass = vec![0f32; total];

@@ -9,7 +9,9 @@ pub enum BuildError {
     #[error("empty input: {0}")]
     Empty(&'static str),
     /// A grid dimension is zero or the grid is too large to index with 32 bits.
-    #[error("grid of {cols}x{rows} vertices is not supported (each side >= 1, at most 2^30 vertices)")]
+    #[error(
+        "grid of {cols}x{rows} vertices is not supported (each side >= 1, at most 2^30 vertices)"
+    )]
     BadGridSize {
         /// Columns asked for.
         cols: u32,
@@ -55,7 +57,9 @@ pub enum BuildError {
     ///
     /// A hierarchy is one tree whose every node is a connected patch; separate pieces would need
     /// separate cloths, so the caller builds one hierarchy per piece.
-    #[error("mesh has {components} disconnected parts (vertex {example} is not connected to vertex 0); build one hierarchy per part")]
+    #[error(
+        "mesh has {components} disconnected parts (vertex {example} is not connected to vertex 0); build one hierarchy per part"
+    )]
     Disconnected {
         /// Number of connected components (unused vertices count as one each).
         components: usize,

@@ -22,8 +22,8 @@ pub use error::{BuildError, CutError, EvalError, InvariantError};
 pub use evaluator::{Budget, Evaluator, EvaluatorSettings, Op};
 pub use grid::GridSpec;
 pub use hierarchy::Hierarchy;
-pub use mesh::DEFAULT_AREAL_DENSITY;
 pub use id::{NodeId, NodeRange};
+pub use mesh::DEFAULT_AREAL_DENSITY;
 
 #[cfg(test)]
 mod tests;

@@ -118,7 +118,9 @@ fn components(n: usize, edges: &[[u32; 2]]) -> (usize, u32) {
         }
     }
     let r0 = find(&mut parent, 0);
-    let example = (0..n as u32).find(|&v| find(&mut parent, v) != r0).unwrap_or(0);
+    let example = (0..n as u32)
+        .find(|&v| find(&mut parent, v) != r0)
+        .unwrap_or(0);
     (count, example)
 }
 
@@ -190,7 +192,11 @@ impl Hierarchy {
             None => {
                 let mut m = vec![0f32; positions.len()];
                 for &[a, b, c] in triangles {
-                    let (pa, pb, pc) = (positions[a as usize], positions[b as usize], positions[c as usize]);
+                    let (pa, pb, pc) = (
+                        positions[a as usize],
+                        positions[b as usize],
+                        positions[c as usize],
+                    );
                     let third = (pb - pa).cross(pc - pa).length() / 6.0 * DEFAULT_AREAL_DENSITY;
                     for v in [a, b, c] {
                         m[v as usize] += third;

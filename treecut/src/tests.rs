@@ -17,7 +17,11 @@ fn mesh(cols: u32, rows: u32, seed: u64) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let mut p = Vec::new();
     for j in 0..rows {
         for i in 0..cols {
-            p.push(Vec3::new(i as f32 + 0.3 * rnd(), 0.2 * rnd(), j as f32 + 0.3 * rnd()));
+            p.push(Vec3::new(
+                i as f32 + 0.3 * rnd(),
+                0.2 * rnd(),
+                j as f32 + 0.3 * rnd(),
+            ));
         }
     }
     let mut t = Vec::new();
@@ -56,7 +60,11 @@ fn sorted(c: &Cut) -> Vec<NodeId> {
 fn random_op(h: &Hierarchy, cut: &mut Cut, pick: usize, refine: bool) {
     let n = NodeId::new(pick % h.len());
     let before = cut.clone();
-    let r = if refine { cut.refine(h, n) } else { cut.coarse(h, n) };
+    let r = if refine {
+        cut.refine(h, n)
+    } else {
+        cut.coarse(h, n)
+    };
     if r.is_err() {
         assert_eq!(*cut, before, "refused {n:?} changed the cut: {r:?}");
     } else {
@@ -234,8 +242,15 @@ fn swaps_need_to_beat_the_threshold() {
     let mut prio = vec![0.5f32; h.len()];
     let hot = cut.active()[3];
     prio[hot.index()] = 0.54;
-    let mut ev = Evaluator::new(EvaluatorSettings { hysteresis: 0.05, max_ops: 8 });
-    assert!(ev.evaluate(&h, &cut, &prio, None, budget).unwrap().is_empty());
+    let mut ev = Evaluator::new(EvaluatorSettings {
+        hysteresis: 0.05,
+        max_ops: 8,
+    });
+    assert!(
+        ev.evaluate(&h, &cut, &prio, None, budget)
+            .unwrap()
+            .is_empty()
+    );
     prio[hot.index()] = 0.6;
     let ops = ev.evaluate(&h, &cut, &prio, None, budget).unwrap().to_vec();
     assert!(ops.contains(&Op::Refine(hot)), "{ops:?}");
@@ -249,14 +264,24 @@ fn swaps_need_to_beat_the_threshold() {
     for k in h.children(hot) {
         prio[k.index()] = 0.5;
     }
-    assert!(ev.evaluate(&h, &cut, &prio, None, budget).unwrap().is_empty());
+    assert!(
+        ev.evaluate(&h, &cut, &prio, None, budget)
+            .unwrap()
+            .is_empty()
+    );
 }
 
 #[test]
 fn bad_meshes_are_refused() {
     let p = [Vec3::ZERO, Vec3::X, Vec3::Z, Vec3::new(5.0, 0.0, 5.0)];
-    assert!(matches!(Hierarchy::from_mesh(&[], &[], None), Err(BuildError::Empty(_))));
-    assert!(matches!(Hierarchy::from_mesh(&p[..3], &[], None), Err(BuildError::Empty(_))));
+    assert!(matches!(
+        Hierarchy::from_mesh(&[], &[], None),
+        Err(BuildError::Empty(_))
+    ));
+    assert!(matches!(
+        Hierarchy::from_mesh(&p[..3], &[], None),
+        Err(BuildError::Empty(_))
+    ));
     assert!(matches!(
         Hierarchy::from_mesh(&p[..3], &[[0, 1, 7]], None),
         Err(BuildError::IndexOutOfRange { index: 7, .. })
@@ -267,7 +292,10 @@ fn bad_meshes_are_refused() {
     ));
     assert!(matches!(
         Hierarchy::from_mesh(&p, &[[0, 1, 2]], None),
-        Err(BuildError::Disconnected { components: 2, example: 3 })
+        Err(BuildError::Disconnected {
+            components: 2,
+            example: 3
+        })
     ));
     assert!(matches!(
         Hierarchy::from_mesh(&p[..3], &[[0, 1, 1]], None),
@@ -278,11 +306,17 @@ fn bad_meshes_are_refused() {
         Err(BuildError::InvalidMass { vertex: 1, .. })
     ));
     assert!(matches!(
-        Hierarchy::grid(&GridSpec { cols: 0, ..GridSpec::horizontal(3, 3, 1.0, 1.0) }),
+        Hierarchy::grid(&GridSpec {
+            cols: 0,
+            ..GridSpec::horizontal(3, 3, 1.0, 1.0)
+        }),
         Err(BuildError::BadGridSize { .. })
     ));
     assert!(matches!(
-        Hierarchy::grid(&GridSpec { v: Vec3::X, ..GridSpec::horizontal(3, 3, 1.0, 1.0) }),
+        Hierarchy::grid(&GridSpec {
+            v: Vec3::X,
+            ..GridSpec::horizontal(3, 3, 1.0, 1.0)
+        }),
         Err(BuildError::BadGridAxes)
     ));
 }
@@ -307,8 +341,14 @@ fn from_nodes_checks_coverage() {
     let h = Hierarchy::grid(&GridSpec::horizontal(5, 5, 1.0, 1.0)).unwrap();
     let l1: Vec<NodeId> = h.nodes_at_level(1).collect();
     assert!(Cut::from_nodes(&h, &l1).is_ok());
-    assert!(matches!(Cut::from_nodes(&h, &l1[1..]), Err(CutError::NotACut(_, 0))));
+    assert!(matches!(
+        Cut::from_nodes(&h, &l1[1..]),
+        Err(CutError::NotACut(_, 0))
+    ));
     let mut twice = l1.clone();
     twice.push(h.children(l1[0]).first().unwrap());
-    assert!(matches!(Cut::from_nodes(&h, &twice), Err(CutError::NotACut(_, 2))));
+    assert!(matches!(
+        Cut::from_nodes(&h, &twice),
+        Err(CutError::NotACut(_, 2))
+    ));
 }
