@@ -1,3 +1,99 @@
 //! A deterministic mass-spring (XPBD) cloth and the TreeCut-SoftBody operations on it.
+//!
+//! * [`SoftBody`] — the plain solver: particles in structure-of-arrays form, distance links
+//!   in graph-coloured batches, fixed time step with substeps and iterations, pins and
+//!   kinematic anchors, gravity, external forces and damping. Same inputs, same bits.
+//! * Builders: [`GridCloth`] (structural/shear/bend grid, and Bullet's triangle-mesh cloth via
+//!   [`GridCloth::build_bullet`]) and [`MeshCloth`] (any triangle mesh).
+//! * [`TreeCutSoftBody`] — simulation nodes are the active nodes of a `treecut::Cut`;
+//!   refine/coarse run as blended two-half transitions that conserve mass and momentum.
+//!
+//! # Links: formulation
+//! Links are XPBD distance constraints `C = |x_b − x_a| − rest` with compliance `α` (inverse
+//! stiffness) and a blend weight `w ∈ [0, 1]` that multiplies the stiffness (`w = 0`: no effect).
+//! Per substep of length `h`, with `α̃ = α/h²`, `W = w_a + w_b` and λ reset to 0:
+//! `Δλ = (−w·C − α̃·λ)/(w·W + α̃)`, `x_a −= w_a Δλ n`, `x_b += w_b Δλ n`.
+//!
+//! **Resolution-independent material.** For cloth (a 2D sheet) a lattice of spacing `h` under a
+//! strain `ε` across a width `W` has `W/h` links each stretched by `ε h`, so its sheet modulus is
+//! the link stiffness `k` itself, independent of `h`: links of a self-similar lattice (a grid and
+//! every level of its quadtree) get the *same* compliance whatever their rest length
+//! ([`ComplianceScaling::Membrane`], the default). Masses add up the hierarchy, so areal density,
+//! sag and wave speed are the same at every level. A 1D chain needs compliance per unit rest
+//! length instead (`α = c·rest`: `n` links of `l/n` stretch like one of `l`,
+//! [`ComplianceScaling::Chain`]); using that for cloth would make every coarser level four
+//! times softer. Both are tested. With a fixed iteration count a very stiff material is limited by
+//! convergence, which is faster on coarse meshes; a material whose compliance is not negligible
+//! behaves the same at every resolution.
+//!
+//! # Links: colouring, deletion, determinism
+//! A link goes into the first colour batch where neither of its particles has a link yet (first
+//! fit on a 64-bit mask per particle: O(1), deterministic in insertion order; a particle with 64
+//! colours used sends further links to an ordered overflow batch). Batches run in colour order;
+//! inside one, no two links share a particle, so each link reads and writes only its own two
+//! particles: order inside a batch does not matter, four links are computed at once in SSE lanes,
+//! and removing a link is an O(1) swap-remove that leaves every other link computing exactly the
+//! same bits (a deleted link and a link of weight 0 are indistinguishable; tested bit for bit).
+//! Links are stored in blocks of four (all fields of four links in 112 contiguous bytes). No
+//! hash maps, no threads, no time-dependent state: the same calls give bit-identical results.
+//!
+//! # TreeCut-SoftBody
+//! Every particle stands for one hierarchy node ([`TreeCutSoftBody::particle_nodes`]). Links are
+//! the *induced adjacency*: two simulated nodes are linked iff some finest mesh edge joins them,
+//! rest length = distance of their hierarchy rest positions; on a grid quadtree that is the
+//! structural and shear links at every level, and the finest cut is exactly the plain grid cloth (tested bit for
+//! bit). Each particle has an incident-link list (with the particle at the other end), so no
+//! operation searches all links.
+//!
+//! A parent and its children are never simulated at once. During a transition the parent is
+//! *virtual*: the mass-weighted centroid of its real children, reached by *group links* solved in a
+//! small sequential pass after the batches with the generalised XPBD gradient (`n` for the single
+//! end, `−(m_i/M) n` for child `i`), which conserves momentum like a plain link.
+//! * [`TreeCutSoftBody::begin_refine`]: children replace the parent (hierarchy masses; positions =
+//!   parent position + `R·(rest offset)` with `R` the shape-matching rotation of the parent's
+//!   neighbourhood, shifted so the centroid is exactly the parent's position; the parent's
+//!   velocity), the parent's links become group links that fade out, child–neighbour links fade in,
+//!   sibling links start at full weight.
+//! * [`TreeCutSoftBody::begin_coarse`]: the children stay real; group links from their centroid to
+//!   each external neighbour fade in while the children's external links fade out.
+//! * After `blend_steps` steps [`TreeCutSoftBody::step`] ends them: refine drops the group links;
+//!   coarse merges the children into one particle (total mass, centroid, mass-weighted mean
+//!   velocity) whose group links become plain links.
+//!
+//! Nodes in transition and all their neighbours are locked in the cut until the end, so no
+//! transition starts next to one in flight. New particles have [`SoftBody::collides`] false until
+//! their transition ends (there is no collision stage yet; the flag is the contract for one).
+//! Pins belong to finest vertices; the node covering a pinned vertex is pinned where that vertex
+//! sits on its anchor (see [`TreeCutSoftBody::pin_vertex`]). [`TreeCutSoftBody::reconstruct`] gives
+//! every finest vertex a position (rigidly carried by its node's shape-matching rotation, blended
+//! with the neighbours' predictions in the default [`ReconstructionMode::Smooth`]), and
+//! [`reconstruction_error`] compares it with a full-resolution reference.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
+
+mod body;
+mod builders;
+mod error;
+mod group;
+mod ids;
+mod kernel;
+mod links;
+mod settings;
+mod shape;
+mod tc;
+
+#[cfg(test)]
+mod body_tests;
+
+pub use body::SoftBody;
+pub use builders::{GridCloth, MeshCloth, VertexMasses, distance_two_pairs};
+pub use error::SoftBodyError;
+pub use ids::{LinkId, ParticleId};
+pub use links::LinkInfo;
+pub use settings::{ComplianceScaling, Material, SolverSettings};
+pub use tc::{
+    DrawLink, ReconstructionError, ReconstructionMode, TransitionInfo, TransitionKind,
+    TreeCutError, TreeCutSettings, TreeCutSoftBody, reconstruction_error,
+};
+/// The `treecut` crate this one builds on, re-exported so hosts use the same version.
+pub use treecut;

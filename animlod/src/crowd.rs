@@ -1,0 +1,955 @@
+//! A crowd of characters sharing one rig: per-character state (position, clip, playback time,
+//! local and model matrices, last-update stamps), the camera, the LOD mode, and the frame loop
+//! that samples, schedules and concatenates.
+//!
+//! Per-character bone data lives in crowd-wide arrays (`characters × bones`), so a frame walks
+//! contiguous memory. Characters are kept dense (removal moves the last one into the hole); ids
+//! go through a generational slot table.
+
+use std::sync::Arc;
+
+use glam::{Affine3A, Mat4, Vec3};
+
+use crate::camera::{Camera, LodMode, omega_from_distance, omega_from_pixels};
+use crate::clip::{Clip, Cursor, TrsScratch};
+use crate::error::{CrowdError, invalid};
+use crate::ids::{BoneId, CharacterId, ClipId, SkinId};
+use crate::pose_error::{ErrorSum, PoseError};
+use crate::priority::PriorityWeights;
+use crate::rig::Rig;
+use crate::scheduler::{SchedulerParams, schedule, schedule_error};
+use crate::skeleton::NO_PARENT;
+use crate::transform::concat;
+
+/// Where a crowd's bone priorities come from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PrioritySource {
+    /// The thesis: a weighted average of the six sub-priorities ([`PriorityWeights`], user
+    /// values).
+    #[default]
+    Factors,
+    /// The measured hold error rate of each bone keyframe over its clip's peak — what the six
+    /// factors approximate (see [`crate::SubPriorities::hold_error_rate`]).
+    HoldError,
+}
+
+/// What a frame did, summed over the crowd.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FrameStats {
+    /// Characters advanced.
+    pub characters: u32,
+    /// Characters with Ω = 0 (or no budget share): nothing of them was interpolated.
+    pub characters_frozen: u32,
+    /// Animated bones that interpolated their channels this frame.
+    pub bones_interpolated: u64,
+    /// Animated bones that held their last local transform.
+    pub bones_held: u64,
+    /// Bones with no animated channel in the current clip (constant; never sampled).
+    pub bones_constant: u64,
+    /// Model-space matrices recomputed (a bone whose own and all ancestors' local transforms held
+    /// is skipped).
+    pub bones_concatenated: u64,
+}
+
+impl std::ops::AddAssign for FrameStats {
+    fn add_assign(&mut self, o: Self) {
+        self.characters += o.characters;
+        self.characters_frozen += o.characters_frozen;
+        self.bones_interpolated += o.bones_interpolated;
+        self.bones_held += o.bones_held;
+        self.bones_constant += o.bones_constant;
+        self.bones_concatenated += o.bones_concatenated;
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Slot {
+    generation: u32,
+    /// Dense index of the character, or `u32::MAX` when free.
+    dense: u32,
+}
+
+/// Histogram bins of the budget's scores: bin 0 holds zero scores (never updated), bins
+/// 1..=256 cover 2^-32 to 2^32 in quarter octaves.
+const SCORE_BINS: usize = 257;
+
+/// The histogram bin of a score, monotone in the score.
+#[inline]
+fn score_bin(score: f32) -> usize {
+    if score.is_nan() || score <= 0.0 {
+        return 0;
+    }
+    let bits = score.to_bits();
+    let exponent = ((bits >> 23) & 0xFF) as i32 - 127;
+    let quarter = ((bits >> 21) & 3) as usize;
+    1 + (exponent + 32).clamp(0, 63) as usize * 4 + quarter
+}
+
+/// When a character's clock passes this many seconds, it and its stamps move back by half.
+const CLOCK_REBASE: f32 = 1024.0;
+
+#[derive(Clone, Copy, Debug)]
+struct Character {
+    id: CharacterId,
+    position: Vec3,
+    clip: ClipId,
+    /// Playback time, wrapped into the clip.
+    time: f32,
+    /// Key segment (of the clip's priority timeline) playing now, and before the last step.
+    segment: u32,
+    prev_segment: u32,
+    /// Whether the last step wrapped around the end of the clip.
+    wrapped: bool,
+    speed: f32,
+    /// Playback seconds elapsed (holds are timed on it), kept below [`CLOCK_REBASE`] by shifting
+    /// it and the last-update stamps together, so f32 keeps sub-millisecond resolution.
+    clock: f32,
+    omega: f32,
+    size_px: f32,
+    /// Playback seconds advanced this frame.
+    step: f32,
+    /// Pixels per unit at the nearest visible point of the bounding sphere (0: invisible).
+    near_ppu: f32,
+}
+
+/// Scratch reused every frame (no allocation in the frame loop once warmed up).
+#[derive(Clone, Debug, Default)]
+struct Scratch {
+    trs: TrsScratch,
+    cursors: Vec<Cursor>,
+    /// Per bone: 1 if its local transform changed this frame.
+    mask: Vec<u8>,
+    /// Per animated-bone slot: 1 if it interpolates this frame.
+    go: Vec<u8>,
+    /// Per animated-bone slot: priorities or rates max-combined over the segments a step crossed.
+    row: Vec<f32>,
+    /// The slots that interpolate this frame (first entries).
+    updated: Vec<u32>,
+    /// The bones whose model matrix is recomputed this frame (first entries).
+    list: Vec<u32>,
+    /// Budget mode: each animated-bone slot's score bin this frame (per character stride).
+    bins: Vec<u16>,
+    dirty: Vec<u8>,
+}
+
+/// Characters sharing one rig, animated with bone-priority LOD.
+#[derive(Clone, Debug)]
+pub struct Crowd {
+    rig: Arc<Rig>,
+    bones: usize,
+    /// Per-character stride of the bone arrays: the bone count made odd, so two characters'
+    /// model matrices are never a multiple of 4 KiB apart (that aliasing made loads of a parent's
+    /// fresh model matrix wait on unrelated stores and cost half the model-space pass).
+    stride: usize,
+    slots: Vec<Slot>,
+    free: Vec<u32>,
+    chars: Vec<Character>,
+    locals: Vec<Affine3A>,
+    models: Vec<Mat4>,
+    /// Per character, per animated-bone slot of its clip: clock time of the last interpolation.
+    last_update: Vec<f32>,
+    /// Per character, per animated-bone slot: bound on the drift of its hold so far (model
+    /// units; used by [`LodMode::ErrorBound`]).
+    drift: Vec<f32>,
+    camera: Camera,
+    lod: LodMode,
+    params: SchedulerParams,
+    weights: PriorityWeights,
+    source: PrioritySource,
+    user: Vec<f32>,
+    /// Combined priority table per clip, `[segment * animated + slot]`.
+    tables: Vec<Vec<f32>>,
+    /// Frames advanced (rotates the budget's processing order).
+    frame: u64,
+    scratch: Scratch,
+}
+
+fn check_finite3(v: Vec3, what: &'static str) -> Result<(), CrowdError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(invalid(what, "must be finite"))
+    }
+}
+
+/// Model-space concatenation with skipping: a bone is recomputed iff it or an ancestor changed
+/// (`mask`); returns how many were. Branch-free flag propagation and compaction into `list`
+/// first (the changed set is data-dependent, so a branch per bone would mispredict often), then
+/// one pass over the changed bones. `dirty` has one extra, always-zero slot that roots point at.
+#[inline]
+fn concat_changed(
+    parents: &[u32],
+    sentinel_parents: &[u32],
+    mask: &[u8],
+    dirty: &mut [u8],
+    list: &mut [u32],
+    locals: &[Affine3A],
+    models: &mut [Mat4],
+) -> u32 {
+    let n = parents.len();
+    let (mask, dirty, list, sp) = (
+        &mask[..n],
+        &mut dirty[..n + 1],
+        &mut list[..n],
+        &sentinel_parents[..n],
+    );
+    dirty[n] = 0;
+    let mut k = 0usize;
+    for b in 0..n {
+        let d = mask[b] | dirty[sp[b] as usize];
+        dirty[b] = d;
+        list[k] = b as u32;
+        k += d as usize;
+    }
+    for &b in &list[..k] {
+        let b = b as usize;
+        let p = parents[b];
+        models[b] = if p == NO_PARENT {
+            Mat4::from(locals[b])
+        } else {
+            concat(&models[p as usize], &locals[b])
+        };
+    }
+    k as u32
+}
+
+/// The row of a per-segment table (`slots` wide) for a character's last playback step: the
+/// row of the segment playing now, or, when the step crossed key boundaries, the element-wise
+/// maximum over every segment it touched (in `buf`). Without this, motion in the part of a step
+/// that fell in the previous segment would be missed whenever the new segment is quiet.
+fn step_row<'a>(
+    table: &'a [f32],
+    slots: usize,
+    segments: usize,
+    c: &Character,
+    buf: &'a mut Vec<f32>,
+) -> &'a [f32] {
+    let (a, b) = (c.prev_segment as usize, c.segment as usize);
+    if a == b && !c.wrapped {
+        return &table[b * slots..(b + 1) * slots];
+    }
+    buf.clear();
+    buf.extend_from_slice(&table[b * slots..(b + 1) * slots]);
+    let mut k = a;
+    for _ in 0..segments {
+        if k == b && !(a == b && c.wrapped) {
+            break;
+        }
+        for (o, &x) in buf.iter_mut().zip(&table[k * slots..(k + 1) * slots]) {
+            *o = o.max(x);
+        }
+        k = (k + 1) % segments;
+        if k == b {
+            break;
+        }
+    }
+    buf
+}
+
+/// Full-detail model-space pass over the bones that move in this clip (a precomputed list, so
+/// no per-bone flag tests).
+#[inline]
+fn concat_moving(parents: &[u32], moving: &[u32], locals: &[Affine3A], models: &mut [Mat4]) {
+    for &b in moving {
+        let b = b as usize;
+        let p = parents[b];
+        models[b] = if p == NO_PARENT {
+            Mat4::from(locals[b])
+        } else {
+            concat(&models[p as usize], &locals[b])
+        };
+    }
+}
+
+impl Crowd {
+    /// An empty crowd for `rig`, with LOD off, the default camera and scheduler, equal priority
+    /// weights and every user priority 1.
+    pub fn new(rig: Arc<Rig>) -> Crowd {
+        let bones = rig.bone_count();
+        let mut crowd = Crowd {
+            rig,
+            bones,
+            stride: bones | 1,
+            slots: Vec::new(),
+            free: Vec::new(),
+            chars: Vec::new(),
+            locals: Vec::new(),
+            models: Vec::new(),
+            last_update: Vec::new(),
+            drift: Vec::new(),
+            camera: Camera::default(),
+            lod: LodMode::Off,
+            params: SchedulerParams::default(),
+            weights: PriorityWeights::EQUAL,
+            source: PrioritySource::Factors,
+            user: vec![1.0; bones],
+            tables: Vec::new(),
+            frame: 0,
+            scratch: Scratch {
+                mask: vec![0; bones],
+                go: vec![0; bones],
+                dirty: vec![0; bones + 1],
+                updated: vec![0; bones],
+                list: vec![0; bones],
+                ..Scratch::default()
+            },
+        };
+        crowd.rebuild_tables();
+        crowd
+    }
+
+    /// The shared rig.
+    pub fn rig(&self) -> &Arc<Rig> {
+        &self.rig
+    }
+
+    /// Number of live characters.
+    pub fn len(&self) -> usize {
+        self.chars.len()
+    }
+
+    /// Whether the crowd has no character.
+    pub fn is_empty(&self) -> bool {
+        self.chars.is_empty()
+    }
+
+    /// Ids of the live characters (in storage order, which removal changes).
+    pub fn character_ids(&self) -> impl ExactSizeIterator<Item = CharacterId> + '_ {
+        self.chars.iter().map(|c| c.id)
+    }
+
+    /// Whether `id` names a live character.
+    pub fn contains(&self, id: CharacterId) -> bool {
+        self.dense(id).is_ok()
+    }
+
+    /// Where character `d`'s bones lie in the per-character arrays.
+    #[inline]
+    fn span(&self, d: usize) -> std::ops::Range<usize> {
+        d * self.stride..d * self.stride + self.bones
+    }
+
+    fn dense(&self, id: CharacterId) -> Result<usize, CrowdError> {
+        match self.slots.get(id.index() as usize) {
+            Some(s) if s.generation == id.generation() && s.dense != u32::MAX => {
+                Ok(s.dense as usize)
+            }
+            _ => Err(CrowdError::StaleCharacter(id)),
+        }
+    }
+
+    fn clip_ref(&self, clip: ClipId) -> Result<&Clip, CrowdError> {
+        self.rig.clip(clip).ok_or(CrowdError::UnknownClip(clip))
+    }
+
+    /// Adds a character at `position` (world space; characters are not rotated) playing `clip`
+    /// from time 0 at speed 1. Its pose is evaluated at once.
+    pub fn add_character(
+        &mut self,
+        position: Vec3,
+        clip: ClipId,
+    ) -> Result<CharacterId, CrowdError> {
+        check_finite3(position, "position")?;
+        self.clip_ref(clip)?;
+        if self.chars.len() >= u32::MAX as usize - 1 {
+            return Err(CrowdError::TooManyCharacters);
+        }
+        let index = match self.free.pop() {
+            Some(i) => i,
+            None => {
+                self.slots.push(Slot {
+                    generation: 0,
+                    dense: u32::MAX,
+                });
+                (self.slots.len() - 1) as u32
+            }
+        };
+        let slot = &mut self.slots[index as usize];
+        slot.generation = slot.generation.wrapping_add(1).max(1);
+        slot.dense = self.chars.len() as u32;
+        let id = CharacterId::from_raw(index, slot.generation);
+        self.chars.push(Character {
+            id,
+            position,
+            clip,
+            time: 0.0,
+            segment: 0,
+            prev_segment: 0,
+            wrapped: false,
+            speed: 1.0,
+            clock: 0.0,
+            omega: 1.0,
+            size_px: 0.0,
+            step: 0.0,
+            near_ppu: 0.0,
+        });
+        let n = self.stride;
+        self.locals
+            .extend(std::iter::repeat_n(Affine3A::IDENTITY, n));
+        self.models.extend(std::iter::repeat_n(Mat4::IDENTITY, n));
+        self.last_update.extend(std::iter::repeat_n(0.0, n));
+        self.drift.extend(std::iter::repeat_n(0.0, n));
+        self.evaluate_full(self.chars.len() - 1);
+        Ok(id)
+    }
+
+    /// Removes a character; its id (and any copy of it) goes stale.
+    pub fn remove_character(&mut self, id: CharacterId) -> Result<(), CrowdError> {
+        let d = self.dense(id)?;
+        let last = self.chars.len() - 1;
+        let n = self.stride;
+        if d != last {
+            self.locals.copy_within(last * n..(last + 1) * n, d * n);
+            self.models.copy_within(last * n..(last + 1) * n, d * n);
+            self.last_update
+                .copy_within(last * n..(last + 1) * n, d * n);
+            self.drift.copy_within(last * n..(last + 1) * n, d * n);
+            let moved = self.chars[last].id;
+            self.slots[moved.index() as usize].dense = d as u32;
+        }
+        self.chars.swap_remove(d);
+        self.locals.truncate(last * n);
+        self.models.truncate(last * n);
+        self.last_update.truncate(last * n);
+        self.drift.truncate(last * n);
+        let slot = &mut self.slots[id.index() as usize];
+        slot.dense = u32::MAX;
+        slot.generation = slot.generation.wrapping_add(1).max(1);
+        self.free.push(id.index());
+        Ok(())
+    }
+
+    /// Moves a character.
+    pub fn set_position(&mut self, id: CharacterId, position: Vec3) -> Result<(), CrowdError> {
+        check_finite3(position, "position")?;
+        let d = self.dense(id)?;
+        self.chars[d].position = position;
+        Ok(())
+    }
+
+    /// A character's position.
+    pub fn position(&self, id: CharacterId) -> Result<Vec3, CrowdError> {
+        Ok(self.chars[self.dense(id)?].position)
+    }
+
+    /// Switches a character to another clip from time 0; its pose is re-evaluated at once.
+    pub fn set_clip(&mut self, id: CharacterId, clip: ClipId) -> Result<(), CrowdError> {
+        self.clip_ref(clip)?;
+        let d = self.dense(id)?;
+        let c = &mut self.chars[d];
+        c.clip = clip;
+        c.time = 0.0;
+        self.evaluate_full(d);
+        Ok(())
+    }
+
+    /// A character's clip.
+    pub fn clip(&self, id: CharacterId) -> Result<ClipId, CrowdError> {
+        Ok(self.chars[self.dense(id)?].clip)
+    }
+
+    /// Jumps a character to playback time `time` (wrapped into the clip); the pose is
+    /// re-evaluated at once.
+    pub fn set_time(&mut self, id: CharacterId, time: f32) -> Result<(), CrowdError> {
+        if !time.is_finite() {
+            return Err(invalid("time", "must be finite"));
+        }
+        let d = self.dense(id)?;
+        let clip = self.chars[d].clip;
+        let wrapped = self.rig.clips()[clip.index()].wrap_time(time);
+        self.chars[d].time = wrapped;
+        self.evaluate_full(d);
+        Ok(())
+    }
+
+    /// A character's playback time within its clip.
+    pub fn time(&self, id: CharacterId) -> Result<f32, CrowdError> {
+        Ok(self.chars[self.dense(id)?].time)
+    }
+
+    /// Sets a character's playback speed (finite, ≥ 0; 1 = real time).
+    pub fn set_speed(&mut self, id: CharacterId, speed: f32) -> Result<(), CrowdError> {
+        if !(speed.is_finite() && speed >= 0.0) {
+            return Err(invalid("speed", "must be finite and non-negative"));
+        }
+        let d = self.dense(id)?;
+        self.chars[d].speed = speed;
+        Ok(())
+    }
+
+    /// The camera ratio Ω used for a character in the last frame (1 before any frame, and in
+    /// [`LodMode::Off`] and [`LodMode::Budget`]).
+    pub fn ratio(&self, id: CharacterId) -> Result<f32, CrowdError> {
+        Ok(self.chars[self.dense(id)?].omega)
+    }
+
+    /// Sets the camera (validated).
+    pub fn set_camera(&mut self, camera: Camera) -> Result<(), CrowdError> {
+        camera.validate()?;
+        self.camera = camera;
+        Ok(())
+    }
+
+    /// The camera.
+    pub fn camera(&self) -> &Camera {
+        &self.camera
+    }
+
+    /// Sets the LOD mode (validated).
+    pub fn set_lod(&mut self, lod: LodMode) -> Result<(), CrowdError> {
+        lod.validate()?;
+        self.lod = lod;
+        Ok(())
+    }
+
+    /// The LOD mode.
+    pub fn lod(&self) -> LodMode {
+        self.lod
+    }
+
+    /// Sets the period mapping's parameters (validated).
+    pub fn set_scheduler(&mut self, params: SchedulerParams) -> Result<(), CrowdError> {
+        params.validate()?;
+        self.params = params;
+        Ok(())
+    }
+
+    /// The period mapping's parameters.
+    pub fn scheduler(&self) -> &SchedulerParams {
+        &self.params
+    }
+
+    /// Sets the weights of the six sub-priorities (non-negative, finite, not all zero; normalised
+    /// to sum to 1).
+    pub fn set_priority_weights(&mut self, weights: PriorityWeights) -> Result<(), CrowdError> {
+        let w = weights.normalized().ok_or(invalid(
+            "priority weights",
+            "must be finite, >= 0 and not all 0",
+        ))?;
+        self.weights = w;
+        self.rebuild_tables();
+        Ok(())
+    }
+
+    /// The normalised sub-priority weights.
+    pub fn priority_weights(&self) -> &PriorityWeights {
+        &self.weights
+    }
+
+    /// Sets the user priority of a bone (finite, ≥ 0; normalised by the largest over the
+    /// skeleton). All bones start at 1.
+    pub fn set_user_priority(&mut self, bone: BoneId, value: f32) -> Result<(), CrowdError> {
+        if bone.index() >= self.bones {
+            return Err(CrowdError::UnknownBone(bone));
+        }
+        if !(value.is_finite() && value >= 0.0) {
+            return Err(invalid("user priority", "must be finite and non-negative"));
+        }
+        self.user[bone.index()] = value;
+        self.rebuild_tables();
+        Ok(())
+    }
+
+    /// The combined priority of every animated bone of `clip` in key segment `segment`
+    /// (`[slot]`, slot = position in [`Clip::animated_bones`]).
+    pub fn priorities(&self, clip: ClipId, segment: usize) -> Result<&[f32], CrowdError> {
+        let c = self.clip_ref(clip)?;
+        let slots = c.animated_bone_count();
+        if segment >= c.sub_priorities().segment_count() {
+            return Err(invalid("segment", "out of range"));
+        }
+        Ok(&self.tables[clip.index()][segment * slots..(segment + 1) * slots])
+    }
+
+    /// Chooses where bone priorities come from (see [`PrioritySource`]).
+    pub fn set_priority_source(&mut self, source: PrioritySource) {
+        self.source = source;
+        self.rebuild_tables();
+    }
+
+    /// Where bone priorities come from.
+    pub fn priority_source(&self) -> PrioritySource {
+        self.source
+    }
+
+    fn rebuild_tables(&mut self) {
+        let max = self.user.iter().copied().fold(0.0f32, f32::max);
+        let norm: Vec<f32> = self
+            .user
+            .iter()
+            .map(|&u| if max > 0.0 { u / max } else { 0.0 })
+            .collect();
+        self.tables = self
+            .rig
+            .clips()
+            .iter()
+            .map(|c| match self.source {
+                PrioritySource::Factors => {
+                    let user: Vec<f32> = c.animated.iter().map(|&b| norm[b as usize]).collect();
+                    c.sub_priorities().combine(&self.weights, &user)
+                }
+                PrioritySource::HoldError => c.sub_priorities().measured(),
+            })
+            .collect();
+    }
+
+    /// Model-space matrices of a character's bones (skeleton model space; add the character's
+    /// position for world space). Valid until the next mutating call on the crowd.
+    pub fn model_matrices(&self, id: CharacterId) -> Result<&[Mat4], CrowdError> {
+        let d = self.dense(id)?;
+        Ok(&self.models[self.span(d)])
+    }
+
+    /// Writes a skin's joint matrices (model matrix × inverse bind matrix, in skeleton model
+    /// space) for a character into `out`, which must hold at least as many matrices as the skin
+    /// has joints. Returns the number written.
+    pub fn skinning_matrices(
+        &self,
+        id: CharacterId,
+        skin: SkinId,
+        out: &mut [Mat4],
+    ) -> Result<usize, CrowdError> {
+        let d = self.dense(id)?;
+        let s = self.rig.skin(skin).ok_or(CrowdError::UnknownSkin(skin))?;
+        if out.len() < s.joints.len() {
+            return Err(CrowdError::BufferTooSmall {
+                needed: s.joints.len(),
+                given: out.len(),
+            });
+        }
+        let models = &self.models[self.span(d)];
+        for ((o, j), ib) in out.iter_mut().zip(&s.joints).zip(&s.inverse_bind) {
+            *o = models[j.index()] * *ib;
+        }
+        Ok(s.joints.len())
+    }
+
+    /// Evaluates a character's full pose at its current time and stamps every bone as updated.
+    fn evaluate_full(&mut self, d: usize) {
+        let span = self.span(d);
+        let clip = &self.rig.clips()[self.chars[d].clip.index()];
+        let seg = clip.sub_priorities().segment_at(self.chars[d].time) as u32;
+        let c = &mut self.chars[d];
+        (c.segment, c.prev_segment, c.wrapped) = (seg, seg, false);
+        let c = *c;
+        let locals = &mut self.locals[span.clone()];
+        let s = &mut self.scratch;
+        clip.sample_locals(c.time, &mut s.cursors, &mut s.trs, locals);
+        self.rig
+            .skeleton()
+            .model_matrices(locals, &mut self.models[span.clone()]);
+        self.last_update[span.clone()].fill(c.clock);
+        self.drift[span].fill(0.0);
+    }
+
+    /// Advances every character by `dt` seconds (finite, ≥ 0) and updates their poses under the
+    /// current LOD mode. Refused (state unchanged) for a bad `dt`.
+    pub fn advance(&mut self, dt: f32) -> Result<FrameStats, CrowdError> {
+        if !(dt.is_finite() && dt >= 0.0) {
+            return Err(invalid("dt", "must be finite and non-negative"));
+        }
+        let (center, radius) = self.rig.bounds();
+        let lod = self.lod;
+        let camera = self.camera;
+        let projection = camera.projection();
+        let (rig, stride) = (&self.rig, self.stride);
+        for (d, c) in self.chars.iter_mut().enumerate() {
+            let clip = &rig.clips()[c.clip.index()];
+            let step = dt * c.speed;
+            let before = c.time;
+            c.time = clip.wrap_time(c.time + step);
+            c.wrapped = c.time < before;
+            c.prev_segment = c.segment;
+            c.segment = clip.sub_priorities().segment_at(c.time) as u32;
+            c.clock += step;
+            if c.clock > CLOCK_REBASE {
+                let shift = 0.5 * CLOCK_REBASE;
+                c.clock -= shift;
+                self.last_update[d * stride..(d + 1) * stride]
+                    .iter_mut()
+                    .for_each(|l| *l -= shift);
+            }
+            c.step = step;
+            let world = c.position + center;
+            c.size_px = projection.projected_radius(world, radius);
+            c.near_ppu = projection.nearest_pixels_per_unit(world, radius);
+            let visible = c.size_px > 0.0 || projection.pixels_per_unit(world).is_some();
+            c.omega = match lod {
+                LodMode::Off | LodMode::Budget { .. } | LodMode::ErrorBound { .. } => 1.0,
+                LodMode::Ratio(o) => o,
+                LodMode::Range { min, max } => {
+                    if visible {
+                        omega_from_distance(camera.distance(world), min, max)
+                    } else {
+                        0.0
+                    }
+                }
+                LodMode::PixelSize {
+                    full_detail_px,
+                    freeze_below_px,
+                } => omega_from_pixels(c.size_px, full_detail_px, freeze_below_px),
+            };
+        }
+        let budget = match lod {
+            LodMode::Budget {
+                bone_updates_per_frame,
+            } => Some(self.budget_cut(bone_updates_per_frame)),
+            _ => None,
+        };
+        let mut stats = FrameStats::default();
+        let mut partial_left = budget.map_or(0, |b| b.1);
+        // Rotate the starting character each frame so that no character is always first to the
+        // budget's last, partially admitted score bin.
+        let len = self.chars.len();
+        let start = if len > 0 {
+            (self.frame % len as u64) as usize
+        } else {
+            0
+        };
+        self.frame = self.frame.wrapping_add(1);
+        let mut d = start;
+        for _ in 0..len {
+            stats += self.advance_one(d, budget.map(|b| b.0), &mut partial_left);
+            d += 1;
+            if d == len {
+                d = 0;
+            }
+        }
+        Ok(stats)
+    }
+
+    /// The budget's cut: every bone whose score falls in a histogram bin above the returned bin
+    /// interpolates, and up to the returned count of those in the bin itself. Score = projected
+    /// radius × priority integrated over the time held (priority read as a drift rate), a proxy
+    /// for the on-screen error the hold has built up; spending the budget on the highest scores
+    /// each frame greedily minimises the total on-screen error. With
+    /// [`PrioritySource::HoldError`] the priority is the measured drift rate, so the score is
+    /// the predicted pixel error itself (up to a constant). A histogram over log-spaced bins (4 per octave) finds the cut in one pass
+    /// instead of a selection over every bone of the crowd.
+    fn budget_cut(&mut self, budget: u32) -> (usize, u32) {
+        let n = self.stride;
+        let floor = self.params.min_priority;
+        // Four interleaved histograms: consecutive bones often share a bin, and one counter
+        // incremented back to back would serialise on memory.
+        let mut hist = [[0u32; SCORE_BINS]; 4];
+        let buf = &mut self.scratch.row;
+        self.scratch.bins.resize(self.chars.len() * n, 0);
+        for (d, c) in self.chars.iter().enumerate() {
+            let clip = &self.rig.clips()[c.clip.index()];
+            let slots = clip.animated.len();
+            let row = step_row(
+                &self.tables[c.clip.index()],
+                slots,
+                clip.sub_priorities().segment_count(),
+                c,
+                buf,
+            );
+            let drift = &mut self.drift[d * n..d * n + slots];
+            let bins = &mut self.scratch.bins[d * n..d * n + slots];
+            for (i, ((e, &p), bin)) in drift.iter_mut().zip(row).zip(bins.iter_mut()).enumerate() {
+                *e += c.step * p.max(floor);
+                let b = score_bin(*e * c.size_px);
+                *bin = b as u16;
+                hist[i & 3][b] += 1;
+            }
+        }
+        let mut admitted = 0u32;
+        for bin in (1..SCORE_BINS).rev() {
+            let count = hist[0][bin] + hist[1][bin] + hist[2][bin] + hist[3][bin];
+            if admitted + count >= budget {
+                return (bin, budget - admitted);
+            }
+            admitted += count;
+        }
+        // Everything with a positive score fits.
+        (1, u32::MAX)
+    }
+
+    fn advance_one(
+        &mut self,
+        d: usize,
+        budget: Option<usize>,
+        partial_left: &mut u32,
+    ) -> FrameStats {
+        let n = self.bones;
+        let span = self.span(d);
+        let c = self.chars[d];
+        let rig = &*self.rig;
+        let clip = &rig.clips()[c.clip.index()];
+        let parents = rig.skeleton().parents_raw();
+        let animated = clip.animated.len() as u64;
+        let mut st = FrameStats {
+            characters: 1,
+            bones_constant: n as u64 - animated,
+            ..FrameStats::default()
+        };
+        let locals = &mut self.locals[span.clone()];
+        let models = &mut self.models[span.clone()];
+        let last = &mut self.last_update[span.clone()];
+        let drift = &mut self.drift[span];
+        let s = &mut self.scratch;
+        let error_bound = match self.lod {
+            LodMode::ErrorBound { max_error_px } => Some(max_error_px),
+            _ => None,
+        };
+        let slots = clip.animated.len();
+        let mut full = budget.is_none() && error_bound.is_none() && c.omega >= 1.0;
+        if budget.is_none() && error_bound.is_none() && c.omega <= 0.0 {
+            st.bones_held = animated;
+            st.characters_frozen = 1;
+            return st;
+        }
+        let mut count = slots;
+        if !full {
+            let sub = clip.sub_priorities();
+            let go = &mut s.go[..slots];
+            let last = &mut last[..slots];
+            count = match budget {
+                None if error_bound.is_some() => {
+                    let rates = step_row(&sub.hold_max, slots, sub.segment_count(), &c, &mut s.row);
+                    let tol = error_bound.unwrap_or(f32::INFINITY);
+                    schedule_error(
+                        rates,
+                        c.step,
+                        c.near_ppu,
+                        tol,
+                        &mut drift[..slots],
+                        c.clock,
+                        last,
+                        go,
+                    )
+                }
+                None => {
+                    let row = step_row(
+                        &self.tables[c.clip.index()],
+                        slots,
+                        sub.segment_count(),
+                        &c,
+                        &mut s.row,
+                    );
+                    schedule(row, c.omega, &self.params, c.clock, last, go)
+                }
+                Some(cut) => {
+                    // Drifts and bins were updated by `budget_cut` this frame.
+                    let bins = &s.bins[d * self.stride..d * self.stride + slots];
+                    let mut count = 0;
+                    for (((g, l), e), &bin) in go
+                        .iter_mut()
+                        .zip(last.iter_mut())
+                        .zip(drift[..slots].iter_mut())
+                        .zip(bins)
+                    {
+                        let bin = bin as usize;
+                        let partial = bin == cut && *partial_left > 0;
+                        let update = bin > cut || partial;
+                        *partial_left -= partial as u32;
+                        *l = if update { c.clock } else { *l };
+                        *e = if update { 0.0 } else { *e };
+                        *g = update as u8;
+                        count += update as u32;
+                    }
+                    count
+                }
+            } as usize;
+            if count == 0 {
+                st.bones_held = animated;
+                st.characters_frozen = 1;
+                return st;
+            }
+            // When most bones are due anyway, interpolating all of them through the contiguous
+            // block path costs less than picking them out one by one. Not in budget mode, whose
+            // count must stay within the budget.
+            if budget.is_none() && 2 * count >= slots {
+                full = true;
+                count = slots;
+            }
+        }
+        st.bones_interpolated = count as u64;
+        st.bones_held = animated - count as u64;
+        s.trs.prepare(clip);
+        clip.locate_all(c.time, &mut s.cursors);
+        if full {
+            clip.sample(&s.cursors, &mut s.trs);
+            clip.compose(&s.trs, locals);
+            last[..slots].fill(c.clock);
+            drift[..slots].fill(0.0);
+            concat_moving(parents, &clip.moving, locals, models);
+            st.bones_concatenated = clip.moving.len() as u64;
+            return st;
+        }
+        // Branch-free: the update pattern is data-dependent.
+        s.mask.fill(0);
+        let mut k = 0usize;
+        for (i, (&b, &g)) in clip.animated.iter().zip(&s.go[..slots]).enumerate() {
+            s.mask[b as usize] = g;
+            s.updated[k] = i as u32;
+            k += g as usize;
+        }
+        clip.sample_slots(&s.cursors, &s.updated[..k], &mut s.trs, locals);
+        let sentinel = rig.skeleton().parents_sentinel();
+        st.bones_concatenated = concat_changed(
+            parents,
+            sentinel,
+            &s.mask,
+            &mut s.dirty,
+            &mut s.list,
+            locals,
+            models,
+        ) as u64;
+        st
+    }
+
+    /// Pose error of one character against full-rate evaluation at its current time (joints only;
+    /// pixels through the current camera).
+    pub fn pose_error(&self, id: CharacterId) -> Result<PoseError, CrowdError> {
+        let d = self.dense(id)?;
+        let mut sum = ErrorSum::default();
+        self.accumulate_error(d, &mut sum, &mut Vec::new(), &mut Vec::new());
+        Ok(sum.finish())
+    }
+
+    /// Pose error over every joint of every character.
+    pub fn total_pose_error(&self) -> PoseError {
+        let mut sum = ErrorSum::default();
+        self.accumulate_pose_error(&mut sum);
+        sum.finish()
+    }
+
+    /// Adds every joint of every character to running error sums (to aggregate over frames).
+    pub fn accumulate_pose_error(&self, sum: &mut ErrorSum) {
+        let (mut locals, mut models) = (Vec::new(), Vec::new());
+        for d in 0..self.chars.len() {
+            self.accumulate_error(d, sum, &mut locals, &mut models);
+        }
+    }
+
+    fn accumulate_error(
+        &self,
+        d: usize,
+        sum: &mut ErrorSum,
+        locals: &mut Vec<Affine3A>,
+        reference: &mut Vec<Mat4>,
+    ) {
+        let n = self.bones;
+        let c = &self.chars[d];
+        let clip = &self.rig.clips()[c.clip.index()];
+        let models = &self.models[self.span(d)];
+        locals.resize(n, Affine3A::IDENTITY);
+        reference.resize(n, Mat4::IDENTITY);
+        let mut trs = TrsScratch::default();
+        clip.sample_locals(c.time, &mut Vec::new(), &mut trs, locals);
+        let skeleton = self.rig.skeleton();
+        skeleton.model_matrices(locals, reference);
+        sum.add_pose(
+            skeleton.joint_flags(),
+            models,
+            reference,
+            c.position,
+            &self.camera,
+        );
+    }
+}
+
+#[cfg(test)]
+#[path = "crowd_tests.rs"]
+mod tests;

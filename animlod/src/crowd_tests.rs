@@ -1,0 +1,403 @@
+//! Crowd tests on real rigs: ids, refused inputs, the scheduler contract, concatenation
+//! skipping, the budget, and pose error against full-rate evaluation.
+
+use std::sync::Arc;
+
+use glam::{Mat4, Vec3};
+
+use super::*;
+use crate::import::tests::asset;
+use crate::{ClipId, LodMode, PriorityWeights, Rig, SchedulerParams};
+
+fn gdbot() -> Arc<Rig> {
+    Arc::new(Rig::from_gltf_path(&asset("GDQuest_GDBot.glb")).unwrap())
+}
+
+fn walk(rig: &Rig) -> ClipId {
+    rig.clip_by_name("walk").unwrap()
+}
+
+/// A crowd of `n` characters on a line, at spread phases.
+fn crowd(rig: &Arc<Rig>, n: usize) -> (Crowd, Vec<CharacterId>) {
+    let clip = walk(rig);
+    let mut c = Crowd::new(rig.clone());
+    let d = rig.clip(clip).unwrap().duration();
+    let ids = (0..n)
+        .map(|i| {
+            let id = c
+                .add_character(Vec3::new(i as f32 * 2.0, 0.0, 0.0), clip)
+                .unwrap();
+            c.set_time(id, d * i as f32 / n as f32).unwrap();
+            id
+        })
+        .collect();
+    (c, ids)
+}
+
+fn snapshot(c: &Crowd) -> Vec<(CharacterId, f32, Vec<Mat4>)> {
+    c.character_ids()
+        .map(|id| {
+            (
+                id,
+                c.time(id).unwrap(),
+                c.model_matrices(id).unwrap().to_vec(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn ids_are_generational_and_removal_keeps_the_others() {
+    let rig = gdbot();
+    let (mut c, ids) = crowd(&rig, 3);
+    c.advance(0.1).unwrap();
+    let keep0 = c.model_matrices(ids[0]).unwrap().to_vec();
+    let keep2 = c.model_matrices(ids[2]).unwrap().to_vec();
+    c.remove_character(ids[1]).unwrap();
+    assert_eq!(c.len(), 2);
+    assert_eq!(c.model_matrices(ids[0]).unwrap(), &keep0[..]);
+    assert_eq!(c.model_matrices(ids[2]).unwrap(), &keep2[..]);
+    for e in [
+        c.remove_character(ids[1]).unwrap_err(),
+        c.model_matrices(ids[1]).unwrap_err(),
+        c.set_position(ids[1], Vec3::ZERO).unwrap_err(),
+        c.pose_error(ids[1]).unwrap_err(),
+    ] {
+        assert_eq!(e, CrowdError::StaleCharacter(ids[1]));
+    }
+    // The slot is reused with a new generation; the old id stays stale.
+    let new = c.add_character(Vec3::ZERO, walk(&rig)).unwrap();
+    assert_eq!(new.index(), ids[1].index());
+    assert_ne!(new, ids[1]);
+    assert!(!c.contains(ids[1]) && c.contains(new));
+    assert!(!c.contains(CharacterId::from_raw(0, 0)));
+    assert!(!c.contains(CharacterId::from_raw(99, 1)));
+}
+
+#[test]
+fn refused_inputs_leave_the_crowd_unchanged() {
+    let rig = gdbot();
+    let (mut c, ids) = crowd(&rig, 2);
+    c.advance(0.05).unwrap();
+    let before = snapshot(&c);
+    let (lod, cam, w) = (c.lod(), *c.camera(), *c.priority_weights());
+    let mut out = vec![Mat4::IDENTITY; 3];
+    assert!(c.advance(f32::NAN).is_err());
+    assert!(c.advance(-0.1).is_err());
+    assert!(c.advance(f32::INFINITY).is_err());
+    assert!(
+        c.add_character(Vec3::new(f32::NAN, 0.0, 0.0), walk(&rig))
+            .is_err()
+    );
+    assert_eq!(
+        c.add_character(Vec3::ZERO, ClipId(99)).unwrap_err(),
+        CrowdError::UnknownClip(ClipId(99))
+    );
+    assert!(c.set_position(ids[0], Vec3::INFINITY).is_err());
+    assert!(c.set_clip(ids[0], ClipId(99)).is_err());
+    assert!(c.set_time(ids[0], f32::NAN).is_err());
+    assert!(c.set_speed(ids[0], -1.0).is_err());
+    assert_eq!(
+        c.skinning_matrices(ids[0], SkinId(5), &mut out)
+            .unwrap_err(),
+        CrowdError::UnknownSkin(SkinId(5))
+    );
+    assert_eq!(
+        c.skinning_matrices(ids[0], SkinId(0), &mut out)
+            .unwrap_err(),
+        CrowdError::BufferTooSmall {
+            needed: 63,
+            given: 3
+        }
+    );
+    assert!(
+        c.set_camera(Camera {
+            fov_y: 4.0,
+            ..Camera::default()
+        })
+        .is_err()
+    );
+    assert!(
+        c.set_camera(Camera {
+            viewport_height: f32::NAN,
+            ..Camera::default()
+        })
+        .is_err()
+    );
+    assert!(
+        c.set_lod(LodMode::Range {
+            min: 10.0,
+            max: 5.0
+        })
+        .is_err()
+    );
+    assert!(
+        c.set_lod(LodMode::ErrorBound { max_error_px: 0.0 })
+            .is_err()
+    );
+    assert!(
+        c.set_priority_weights(PriorityWeights::from_array([0.0; 6]))
+            .is_err()
+    );
+    assert!(
+        c.set_priority_weights(PriorityWeights::from_array([1.0, -1.0, 0.0, 0.0, 0.0, 0.0]))
+            .is_err()
+    );
+    assert!(c.set_user_priority(BoneId(500), 1.0).is_err());
+    assert!(c.set_user_priority(BoneId(0), f32::NAN).is_err());
+    assert!(
+        c.set_scheduler(SchedulerParams {
+            period_scale: -1.0,
+            ..SchedulerParams::default()
+        })
+        .is_err()
+    );
+    assert_eq!(snapshot(&c), before);
+    assert_eq!((c.lod(), *c.camera(), *c.priority_weights()), (lod, cam, w));
+    assert_eq!(c.len(), 2);
+}
+
+#[test]
+fn full_detail_matches_an_independent_reference() {
+    let rig = gdbot();
+    let (mut c, ids) = crowd(&rig, 4);
+    let clip = rig.clip(walk(&rig)).unwrap();
+    let animated = clip.animated_bone_count() as u64;
+    for _ in 0..37 {
+        let st = c.advance(1.0 / 60.0).unwrap();
+        assert_eq!(st.bones_interpolated, 4 * animated);
+        assert_eq!(st.bones_held, 0);
+        assert_eq!(st.bones_constant, 4 * (rig.bone_count() as u64 - animated));
+    }
+    // Reference: the clip's sampled pose through the skeleton's own model-space pass.
+    let sk = rig.skeleton();
+    for &id in &ids {
+        let pose = clip.sample_pose(c.time(id).unwrap());
+        let locals: Vec<_> = pose.iter().map(|t| t.to_affine()).collect();
+        let mut reference = vec![Mat4::IDENTITY; sk.len()];
+        sk.model_matrices(&locals, &mut reference);
+        for (a, b) in c.model_matrices(id).unwrap().iter().zip(&reference) {
+            assert!(a.abs_diff_eq(*b, 1e-5));
+        }
+        assert_eq!(c.pose_error(id).unwrap().max, 0.0);
+    }
+    // Skinning matrices are model × inverse bind.
+    let mut out = vec![Mat4::IDENTITY; 63];
+    assert_eq!(
+        c.skinning_matrices(ids[0], SkinId(0), &mut out).unwrap(),
+        63
+    );
+    let skin = &rig.skins()[0];
+    let models = c.model_matrices(ids[0]).unwrap();
+    for ((o, j), ib) in out.iter().zip(&skin.joints).zip(&skin.inverse_bind) {
+        assert_eq!(*o, models[j.index()] * *ib);
+    }
+}
+
+#[test]
+fn scheduler_contract() {
+    let rig = gdbot();
+    let animated = rig.clip(walk(&rig)).unwrap().animated_bone_count() as u64;
+    // Ω = 1: every animated bone every frame, no error.
+    let (mut c, _) = crowd(&rig, 3);
+    c.set_lod(LodMode::Ratio(1.0)).unwrap();
+    for _ in 0..20 {
+        assert_eq!(
+            c.advance(1.0 / 60.0).unwrap().bones_interpolated,
+            3 * animated
+        );
+    }
+    assert_eq!(c.total_pose_error().max, 0.0);
+    // Ω = 0: nothing interpolates, nothing is concatenated, the pose does not move.
+    c.set_lod(LodMode::Ratio(0.0)).unwrap();
+    let before = snapshot(&c);
+    for _ in 0..20 {
+        let st = c.advance(1.0 / 60.0).unwrap();
+        assert_eq!(
+            (
+                st.bones_interpolated,
+                st.bones_concatenated,
+                st.characters_frozen
+            ),
+            (0, 0, 3)
+        );
+    }
+    for ((_, _, a), (_, _, b)) in snapshot(&c).iter().zip(&before) {
+        assert_eq!(a, b);
+    }
+    assert!(c.total_pose_error().max > 0.0);
+    // Fewer updates as Ω falls (total over two loops of the clip, same start state).
+    let mut last = u64::MAX;
+    for k in (1..20).rev() {
+        let (mut c, _) = crowd(&rig, 3);
+        c.set_lod(LodMode::Ratio(k as f32 / 20.0)).unwrap();
+        let total: u64 = (0..96)
+            .map(|_| c.advance(1.0 / 60.0).unwrap().bones_interpolated)
+            .sum();
+        assert!(total <= last, "Ω = {}: {total} > {last}", k as f32 / 20.0);
+        last = total;
+    }
+    // Fewer updates as priority falls: user priority only, all bones at 1 vs most at 0.25.
+    let count = |low: f32| {
+        let (mut c, _) = crowd(&rig, 3);
+        c.set_priority_weights(PriorityWeights::from_array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0]))
+            .unwrap();
+        for b in 1..rig.bone_count() {
+            c.set_user_priority(BoneId::new(b), low).unwrap();
+        }
+        c.set_lod(LodMode::Ratio(0.5)).unwrap();
+        (0..96)
+            .map(|_| c.advance(1.0 / 60.0).unwrap().bones_interpolated)
+            .sum::<u64>()
+    };
+    assert!(count(0.25) < count(1.0));
+}
+
+#[test]
+fn held_subtrees_skip_concatenation_and_stay_consistent() {
+    let rig = gdbot();
+    let (mut c, ids) = crowd(&rig, 4);
+    c.set_lod(LodMode::Ratio(0.3)).unwrap();
+    let sk = rig.skeleton();
+    let mut skipped = 0;
+    for _ in 0..60 {
+        let before = snapshot(&c);
+        let st = c.advance(1.0 / 60.0).unwrap();
+        let changed: u64 = snapshot(&c)
+            .iter()
+            .zip(&before)
+            .map(|((_, _, a), (_, _, b))| a.iter().zip(b).filter(|(x, y)| x != y).count() as u64)
+            .sum();
+        assert!(changed <= st.bones_concatenated);
+        skipped += 4 * sk.len() as u64 - st.bones_concatenated;
+        // Every model matrix equals the concatenation of the stored (partly held) locals: skipping
+        // never leaves a stale matrix behind.
+        for &id in &ids {
+            let d = c.dense(id).unwrap();
+            let mut reference = vec![Mat4::IDENTITY; sk.len()];
+            sk.model_matrices(&c.locals[c.span(d)], &mut reference);
+            for (a, b) in c.model_matrices(id).unwrap().iter().zip(&reference) {
+                assert!(a.abs_diff_eq(*b, 1e-4));
+            }
+        }
+    }
+    assert!(skipped > 0);
+}
+
+#[test]
+fn error_shrinks_as_omega_grows() {
+    let rig = gdbot();
+    let mut errors = Vec::new();
+    for omega in [0.2f32, 0.5, 0.8, 1.0] {
+        let (mut c, _) = crowd(&rig, 4);
+        c.set_lod(LodMode::Ratio(omega)).unwrap();
+        let mut sum = ErrorSum::default();
+        for _ in 0..96 {
+            c.advance(1.0 / 60.0).unwrap();
+            c.accumulate_pose_error(&mut sum);
+        }
+        errors.push(sum.finish().mean);
+    }
+    assert!(errors.windows(2).all(|w| w[1] <= w[0]), "{errors:?}");
+    assert_eq!(errors[3], 0.0);
+}
+
+#[test]
+fn error_bound_holds_per_bone_drift_under_the_bound() {
+    // One character, camera looking at it: a single held bone may move a joint at most
+    // `max_error_px` on screen (chains of held bones add up, so the total is checked loosely).
+    let rig = gdbot();
+    let (mut c, ids) = crowd(&rig, 1);
+    c.set_camera(Camera {
+        position: Vec3::new(0.0, 1.0, 12.0),
+        forward: Some(Vec3::NEG_Z),
+        ..Camera::default()
+    })
+    .unwrap();
+    c.set_lod(LodMode::ErrorBound { max_error_px: 1.0 })
+        .unwrap();
+    let mut held = 0;
+    for _ in 0..200 {
+        let st = c.advance(1.0 / 60.0).unwrap();
+        held += st.bones_held;
+        let e = c.pose_error(ids[0]).unwrap();
+        assert!(e.max_px < 2.0, "{e:?}");
+    }
+    assert!(held > 0);
+    // Behind the camera, nothing animates.
+    c.set_position(ids[0], Vec3::new(0.0, 0.0, 40.0)).unwrap();
+    assert_eq!(c.advance(1.0 / 60.0).unwrap().bones_interpolated, 0);
+}
+
+#[test]
+fn budget_caps_updates_and_favours_the_near_character() {
+    let rig = gdbot();
+    let clip = walk(&rig);
+    let animated = rig.clip(clip).unwrap().animated_bone_count() as u32;
+    let mut c = Crowd::new(rig.clone());
+    let near = c.add_character(Vec3::new(0.0, 0.0, -5.0), clip).unwrap();
+    let far = c.add_character(Vec3::new(0.0, 0.0, -60.0), clip).unwrap();
+    c.set_time(far, 0.3).unwrap();
+    c.set_time(near, 0.3).unwrap();
+    c.set_camera(Camera {
+        position: Vec3::new(0.0, 1.0, 0.0),
+        forward: Some(Vec3::NEG_Z),
+        ..Camera::default()
+    })
+    .unwrap();
+    let budget = animated / 2;
+    c.set_lod(LodMode::Budget {
+        bone_updates_per_frame: budget,
+    })
+    .unwrap();
+    let (mut near_err, mut far_err) = (ErrorSum::default(), ErrorSum::default());
+    for frame in 0..120 {
+        let st = c.advance(1.0 / 60.0).unwrap();
+        assert!(st.bones_interpolated <= budget as u64);
+        if frame > 10 {
+            assert_eq!(st.bones_interpolated, budget as u64);
+            let (n, f) = (c.pose_error(near).unwrap(), c.pose_error(far).unwrap());
+            near_err.add(n.mean, None);
+            far_err.add(f.mean, None);
+        }
+    }
+    // Same clip and phase: the near character (8× larger on screen) gets the larger share, so
+    // its error in scene units is smaller.
+    assert!(near_err.finish().mean < far_err.finish().mean);
+    // A budget of zero freezes everyone.
+    c.set_lod(LodMode::Budget {
+        bone_updates_per_frame: 0,
+    })
+    .unwrap();
+    assert_eq!(c.advance(1.0 / 60.0).unwrap().bones_interpolated, 0);
+}
+
+#[test]
+fn playback_controls() {
+    let rig = gdbot();
+    let (mut c, ids) = crowd(&rig, 1);
+    let d = rig.clip(walk(&rig)).unwrap().duration();
+    c.set_time(ids[0], d * 2.5).unwrap();
+    assert!((c.time(ids[0]).unwrap() - d * 0.5).abs() < 1e-5);
+    c.set_speed(ids[0], 0.0).unwrap();
+    let before = snapshot(&c);
+    c.advance(0.3).unwrap();
+    assert_eq!(snapshot(&c), before);
+    c.set_speed(ids[0], 2.0).unwrap();
+    c.advance(0.1).unwrap();
+    assert!((c.time(ids[0]).unwrap() - (d * 0.5 + 0.2)).abs() < 1e-5);
+    let idle = rig.clip_by_name("Idle").unwrap();
+    c.set_clip(ids[0], idle).unwrap();
+    assert_eq!(
+        (c.clip(ids[0]).unwrap(), c.time(ids[0]).unwrap()),
+        (idle, 0.0)
+    );
+    assert_eq!(c.pose_error(ids[0]).unwrap().max, 0.0);
+    // Long runs rebase the clock without disturbing playback.
+    c.set_lod(LodMode::Ratio(0.5)).unwrap();
+    for _ in 0..2000 {
+        c.advance(0.5).unwrap();
+    }
+    assert!(c.chars[0].clock <= CLOCK_REBASE);
+    assert!(c.pose_error(ids[0]).unwrap().max < 1.0);
+}

@@ -1,0 +1,302 @@
+//! The bone hierarchy shared by every character of a rig: parents before children, names, rest
+//! transforms, inverse bind matrices, and the structural facts the priorities use (depth, number
+//! of descendants).
+
+use glam::Mat4;
+
+use crate::error::BuildError;
+use crate::ids::BoneId;
+use crate::transform::{Transform, concat};
+
+/// Largest supported number of bones.
+pub const MAX_BONES: usize = 65_535;
+
+/// Marks a root bone in the parent array.
+pub(crate) const NO_PARENT: u32 = u32::MAX;
+
+/// One bone handed to [`Skeleton::new`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct BoneDesc {
+    /// Name (glTF node name, or a generated one).
+    pub name: String,
+    /// Parent bone; it must come earlier in the list. `None` for a root.
+    pub parent: Option<BoneId>,
+    /// Local transform of the bind/rest pose, used for channels a clip does not key.
+    pub rest: Transform,
+    /// Inverse bind matrix (model space to bone space at bind time); identity for non-joints.
+    pub inverse_bind: Mat4,
+    /// Whether a skin uses the bone as a joint (non-joint bones are ancestors kept so that
+    /// transforms propagate; pose error is measured on joints only).
+    pub is_joint: bool,
+}
+
+/// A bone hierarchy stored parents first, so one forward pass computes model transforms.
+#[derive(Clone, Debug)]
+pub struct Skeleton {
+    parents: Vec<u32>,
+    /// Parents with roots pointing at index `len()` (a sentinel slot), for branch-free loops.
+    parents_sentinel: Vec<u32>,
+    names: Vec<String>,
+    rest: Vec<Transform>,
+    rest_locals: Vec<glam::Affine3A>,
+    inverse_bind: Vec<Mat4>,
+    is_joint: Vec<bool>,
+    depth: Vec<u32>,
+    descendants: Vec<u32>,
+}
+
+impl Skeleton {
+    /// Builds a skeleton; bones must be listed parents first and hold finite values.
+    pub fn new(bones: Vec<BoneDesc>) -> Result<Skeleton, BuildError> {
+        if bones.is_empty() {
+            return Err(BuildError::EmptySkeleton);
+        }
+        if bones.len() > MAX_BONES {
+            return Err(BuildError::TooManyBones(bones.len()));
+        }
+        let n = bones.len();
+        let mut parents = Vec::with_capacity(n);
+        let mut depth = Vec::with_capacity(n);
+        for (i, b) in bones.iter().enumerate() {
+            let bone = BoneId::new(i);
+            match b.parent {
+                Some(p) if p.index() >= i => return Err(BuildError::ParentNotBefore { bone }),
+                Some(p) => {
+                    parents.push(p.0);
+                    depth.push(depth[p.index()] + 1);
+                }
+                None => {
+                    parents.push(NO_PARENT);
+                    depth.push(0);
+                }
+            }
+            if !b.rest.is_finite() || b.rest.rotation.length() < 1e-6 {
+                return Err(BuildError::NonFinite {
+                    what: format!("rest transform of {bone}"),
+                });
+            }
+            if !b.inverse_bind.is_finite() {
+                return Err(BuildError::NonFinite {
+                    what: format!("inverse bind matrix of {bone}"),
+                });
+            }
+        }
+        let mut descendants = vec![0u32; n];
+        for i in (0..n).rev() {
+            if parents[i] != NO_PARENT {
+                descendants[parents[i] as usize] += descendants[i] + 1;
+            }
+        }
+        let mut names = Vec::with_capacity(n);
+        let mut rest = Vec::with_capacity(n);
+        let mut inverse_bind = Vec::with_capacity(n);
+        let mut is_joint = Vec::with_capacity(n);
+        for b in bones {
+            names.push(b.name);
+            rest.push(Transform {
+                rotation: b.rest.rotation.normalize(),
+                ..b.rest
+            });
+            inverse_bind.push(b.inverse_bind);
+            is_joint.push(b.is_joint);
+        }
+        let rest_locals = rest.iter().map(Transform::to_affine).collect();
+        let parents_sentinel = parents
+            .iter()
+            .map(|&p| if p == NO_PARENT { n as u32 } else { p })
+            .collect();
+        Ok(Skeleton {
+            parents,
+            parents_sentinel,
+            names,
+            rest,
+            rest_locals,
+            inverse_bind,
+            is_joint,
+            depth,
+            descendants,
+        })
+    }
+
+    /// Number of bones.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.parents.len()
+    }
+
+    /// Always false: a skeleton has at least one bone.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.parents.is_empty()
+    }
+
+    /// All bone ids, parents first.
+    pub fn bones(&self) -> impl ExactSizeIterator<Item = BoneId> + '_ {
+        (0..self.len()).map(BoneId::new)
+    }
+
+    /// Parent of a bone, `None` for a root. Panics if `bone` is out of range.
+    #[inline]
+    pub fn parent(&self, bone: BoneId) -> Option<BoneId> {
+        let p = self.parents[bone.index()];
+        (p != NO_PARENT).then_some(BoneId(p))
+    }
+
+    /// The parent array (`u32::MAX` marks a root), for fast loops.
+    #[inline]
+    pub(crate) fn parents_raw(&self) -> &[u32] {
+        &self.parents
+    }
+
+    /// The parent array with roots pointing at `len()` (a sentinel slot one past the bones).
+    #[inline]
+    pub(crate) fn parents_sentinel(&self) -> &[u32] {
+        &self.parents_sentinel
+    }
+
+    /// Name of a bone.
+    pub fn name(&self, bone: BoneId) -> &str {
+        &self.names[bone.index()]
+    }
+
+    /// The first bone with this name.
+    pub fn find(&self, name: &str) -> Option<BoneId> {
+        self.names.iter().position(|n| n == name).map(BoneId::new)
+    }
+
+    /// Rest (bind) local transform of a bone.
+    pub fn rest(&self, bone: BoneId) -> Transform {
+        self.rest[bone.index()]
+    }
+
+    /// Rest local transforms of all bones.
+    pub fn rest_pose(&self) -> &[Transform] {
+        &self.rest
+    }
+
+    /// Rest local transforms as affine matrices.
+    pub(crate) fn rest_locals(&self) -> &[glam::Affine3A] {
+        &self.rest_locals
+    }
+
+    /// Inverse bind matrix of a bone (from the first skin that lists it; identity otherwise).
+    pub fn inverse_bind(&self, bone: BoneId) -> Mat4 {
+        self.inverse_bind[bone.index()]
+    }
+
+    /// Whether some skin uses the bone as a joint.
+    pub fn is_joint(&self, bone: BoneId) -> bool {
+        self.is_joint[bone.index()]
+    }
+
+    /// The joint flags of all bones.
+    pub(crate) fn joint_flags(&self) -> &[bool] {
+        &self.is_joint
+    }
+
+    /// Number of edges between a bone and its root (0 for a root).
+    pub fn depth(&self, bone: BoneId) -> u32 {
+        self.depth[bone.index()]
+    }
+
+    /// Depth of the deepest bone.
+    pub fn max_depth(&self) -> u32 {
+        self.depth.iter().copied().max().unwrap_or(0)
+    }
+
+    /// Number of direct and indirect children of a bone.
+    pub fn descendant_count(&self, bone: BoneId) -> u32 {
+        self.descendants[bone.index()]
+    }
+
+    /// Model-space matrices of a pose given as local transforms (one per bone).
+    pub fn model_matrices(&self, locals: &[glam::Affine3A], out: &mut [Mat4]) {
+        for (i, &p) in self.parents.iter().enumerate() {
+            out[i] = if p == NO_PARENT {
+                Mat4::from(locals[i])
+            } else {
+                concat(&out[p as usize], &locals[i])
+            };
+        }
+    }
+
+    /// Model-space matrices of the rest pose.
+    pub fn rest_model_matrices(&self) -> Vec<Mat4> {
+        let mut out = vec![Mat4::IDENTITY; self.len()];
+        self.model_matrices(&self.rest_locals, &mut out);
+        out
+    }
+
+    /// Builds a skeleton from parts already validated (used by rig transformations).
+    pub(crate) fn descs(&self) -> Vec<BoneDesc> {
+        (0..self.len())
+            .map(|i| BoneDesc {
+                name: self.names[i].clone(),
+                parent: self.parent(BoneId::new(i)),
+                rest: self.rest[i],
+                inverse_bind: self.inverse_bind[i],
+                is_joint: self.is_joint[i],
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{Quat, Vec3};
+
+    fn bone(name: &str, parent: Option<u32>, y: f32) -> BoneDesc {
+        BoneDesc {
+            name: name.into(),
+            parent: parent.map(BoneId),
+            rest: Transform {
+                translation: Vec3::new(0.0, y, 0.0),
+                ..Transform::IDENTITY
+            },
+            inverse_bind: Mat4::IDENTITY,
+            is_joint: true,
+        }
+    }
+
+    #[test]
+    fn structure_and_rest_pose() {
+        let s = Skeleton::new(vec![
+            bone("root", None, 1.0),
+            bone("spine", Some(0), 1.0),
+            bone("head", Some(1), 0.5),
+            bone("arm", Some(1), 0.2),
+        ])
+        .unwrap();
+        assert_eq!(s.descendant_count(BoneId(0)), 3);
+        assert_eq!(s.descendant_count(BoneId(1)), 2);
+        assert_eq!(s.depth(BoneId(2)), 2);
+        assert_eq!(s.max_depth(), 2);
+        assert_eq!(s.find("arm"), Some(BoneId(3)));
+        let m = s.rest_model_matrices();
+        assert!((m[2].w_axis.y - 2.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn rejects_bad_input() {
+        assert_eq!(
+            Skeleton::new(vec![]).unwrap_err(),
+            BuildError::EmptySkeleton
+        );
+        let err = Skeleton::new(vec![bone("a", Some(0), 0.0)]).unwrap_err();
+        assert_eq!(err, BuildError::ParentNotBefore { bone: BoneId(0) });
+        let mut b = bone("a", None, f32::NAN);
+        assert!(matches!(
+            Skeleton::new(vec![b.clone()]),
+            Err(BuildError::NonFinite { .. })
+        ));
+        b.rest = Transform {
+            rotation: Quat::from_xyzw(0.0, 0.0, 0.0, 0.0),
+            ..Transform::IDENTITY
+        };
+        assert!(matches!(
+            Skeleton::new(vec![b]),
+            Err(BuildError::NonFinite { .. })
+        ));
+    }
+}

@@ -1,0 +1,536 @@
+//! The plain solver: particles in structure-of-arrays form, coloured links, group links,
+//! and the fixed-step XPBD integrator.
+//!
+//! Particle state is `positions[i] = (x, y, z, inverse mass)` and `velocities[i] = (vx, vy, vz, 0)`:
+//! keeping the inverse mass in the fourth lane means a link reads everything it needs about
+//! a particle from one 16-byte load. Pinned particles have inverse mass 0; their true mass is
+//! kept in `masses` for momentum and centroids.
+
+use crate::error::SoftBodyError;
+use crate::group::{GroupId, GroupStore, GroupTarget};
+use crate::ids::{LinkId, ParticleId};
+use crate::links::{LinkInfo, LinkStore};
+use crate::settings::SolverSettings;
+use glam::{Vec3, Vec3A, Vec4};
+
+/// A kinematic anchor: a pinned particle the host moves; it travels linearly to `target`
+/// over the substeps of the next step (so it carries the matching velocity).
+#[derive(Clone, Copy, Debug)]
+struct Anchor {
+    particle: u32,
+    start: Vec3A,
+    target: Vec3A,
+}
+
+/// A deterministic XPBD mass-spring body (cloth, rope, any particle/link network).
+#[derive(Clone, Debug)]
+pub struct SoftBody {
+    settings: SolverSettings,
+    positions: Vec<Vec4>,
+    velocities: Vec<Vec4>,
+    masses: Vec<f32>,
+    forces: Vec<Vec4>,
+    collides: Vec<bool>,
+    prev: Vec<Vec4>,
+    anchors: Vec<Anchor>,
+    links: LinkStore,
+    groups: GroupStore,
+}
+
+fn finite3(v: Vec3, what: &'static str) -> Result<(), SoftBodyError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(SoftBodyError::NotFinite { what })
+    }
+}
+
+impl SoftBody {
+    /// An empty body with the given settings.
+    pub fn new(settings: SolverSettings) -> Result<Self, SoftBodyError> {
+        settings.validate()?;
+        Ok(Self {
+            settings,
+            positions: Vec::new(),
+            velocities: Vec::new(),
+            masses: Vec::new(),
+            forces: Vec::new(),
+            collides: Vec::new(),
+            prev: Vec::new(),
+            anchors: Vec::new(),
+            links: LinkStore::default(),
+            groups: GroupStore::default(),
+        })
+    }
+
+    /// The current settings.
+    pub fn settings(&self) -> &SolverSettings {
+        &self.settings
+    }
+
+    /// Replaces the settings (validated first).
+    pub fn set_settings(&mut self, settings: SolverSettings) -> Result<(), SoftBodyError> {
+        settings.validate()?;
+        self.settings = settings;
+        Ok(())
+    }
+
+    /// Adds a free particle at rest; `mass` must be positive and finite.
+    pub fn add_particle(&mut self, position: Vec3, mass: f32) -> Result<ParticleId, SoftBodyError> {
+        finite3(position, "particle position")?;
+        if !(mass.is_finite() && mass > 0.0) {
+            return Err(SoftBodyError::BadMass {
+                index: self.positions.len(),
+                mass,
+            });
+        }
+        Ok(self.push_particle(position, Vec3::ZERO, mass, false))
+    }
+
+    /// Adds a particle without validation (callers have checked), optionally pinned.
+    pub(crate) fn push_particle(
+        &mut self,
+        position: Vec3,
+        velocity: Vec3,
+        mass: f32,
+        pinned: bool,
+    ) -> ParticleId {
+        let w = if pinned { 0.0 } else { 1.0 / mass };
+        self.positions.push(position.extend(w));
+        self.velocities.push(if pinned {
+            Vec4::ZERO
+        } else {
+            velocity.extend(0.0)
+        });
+        self.masses.push(mass);
+        self.forces.push(Vec4::ZERO);
+        self.collides.push(true);
+        self.prev.push(Vec4::ZERO);
+        self.links.add_particle();
+        ParticleId::new(self.positions.len() - 1)
+    }
+
+    fn check_particle(&self, p: ParticleId) -> Result<usize, SoftBodyError> {
+        let i = p.index();
+        if i < self.positions.len() {
+            Ok(i)
+        } else {
+            Err(SoftBodyError::OutOfRange {
+                what: "particle",
+                index: i,
+                len: self.positions.len(),
+            })
+        }
+    }
+
+    /// Number of particles.
+    pub fn particle_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Positions: `xyz` = position, `w` = inverse mass (0 = pinned). Valid until the next mutation.
+    pub fn positions(&self) -> &[Vec4] {
+        &self.positions
+    }
+
+    /// Velocities: `xyz` = velocity, `w` = 0.
+    pub fn velocities(&self) -> &[Vec4] {
+        &self.velocities
+    }
+
+    /// Masses (the true mass, also for pinned particles).
+    pub fn masses(&self) -> &[f32] {
+        &self.masses
+    }
+
+    /// Position of one particle.
+    pub fn position(&self, p: ParticleId) -> Vec3 {
+        self.positions[p.index()].truncate()
+    }
+
+    /// Velocity of one particle.
+    pub fn velocity(&self, p: ParticleId) -> Vec3 {
+        self.velocities[p.index()].truncate()
+    }
+
+    /// Moves a particle (teleport: velocity unchanged).
+    pub fn set_position(&mut self, p: ParticleId, position: Vec3) -> Result<(), SoftBodyError> {
+        let i = self.check_particle(p)?;
+        finite3(position, "particle position")?;
+        let w = self.positions[i].w;
+        self.positions[i] = position.extend(w);
+        Ok(())
+    }
+
+    /// Sets a particle's velocity (ignored while it is pinned).
+    pub fn set_velocity(&mut self, p: ParticleId, velocity: Vec3) -> Result<(), SoftBodyError> {
+        let i = self.check_particle(p)?;
+        finite3(velocity, "particle velocity")?;
+        if self.positions[i].w > 0.0 {
+            self.velocities[i] = velocity.extend(0.0);
+        }
+        Ok(())
+    }
+
+    /// Pins (`true`: inverse mass 0, velocity 0) or frees a particle.
+    pub fn set_pinned(&mut self, p: ParticleId, pinned: bool) -> Result<(), SoftBodyError> {
+        let i = self.check_particle(p)?;
+        self.set_pinned_raw(i, pinned);
+        if !pinned {
+            self.anchors.retain(|a| a.particle as usize != i);
+        }
+        Ok(())
+    }
+
+    pub(crate) fn set_pinned_raw(&mut self, i: usize, pinned: bool) {
+        self.positions[i].w = if pinned { 0.0 } else { 1.0 / self.masses[i] };
+        if pinned {
+            self.velocities[i] = Vec4::ZERO;
+        }
+    }
+
+    /// Whether a particle is pinned.
+    pub fn is_pinned(&self, p: ParticleId) -> bool {
+        self.positions[p.index()].w == 0.0
+    }
+
+    /// Pins a particle as a kinematic anchor that moves to `target` during the next step
+    /// (linearly over its substeps, with the matching velocity). Call each frame to drive it.
+    pub fn set_anchor(&mut self, p: ParticleId, target: Vec3) -> Result<(), SoftBodyError> {
+        let i = self.check_particle(p)?;
+        finite3(target, "anchor target")?;
+        self.set_pinned_raw(i, true);
+        let start = Vec3A::from_vec4(self.positions[i]);
+        match self.anchors.iter_mut().find(|a| a.particle as usize == i) {
+            Some(a) => a.target = target.into(),
+            None => self.anchors.push(Anchor {
+                particle: i as u32,
+                start,
+                target: target.into(),
+            }),
+        }
+        Ok(())
+    }
+
+    /// Particles currently driven as kinematic anchors.
+    pub fn anchored_particles(&self) -> impl Iterator<Item = ParticleId> + '_ {
+        self.anchors.iter().map(|a| ParticleId(a.particle))
+    }
+
+    /// Stops driving a particle as an anchor (it stays pinned where it is).
+    pub fn clear_anchor(&mut self, p: ParticleId) {
+        self.anchors.retain(|a| a.particle as usize != p.index());
+    }
+
+    /// Sets the external force on a particle, applied every step until changed.
+    pub fn set_external_force(&mut self, p: ParticleId, force: Vec3) -> Result<(), SoftBodyError> {
+        let i = self.check_particle(p)?;
+        finite3(force, "external force")?;
+        self.forces[i] = force.extend(0.0);
+        Ok(())
+    }
+
+    /// Sets all external forces to zero.
+    pub fn clear_external_forces(&mut self) {
+        self.forces.fill(Vec4::ZERO);
+    }
+
+    /// Whether a particle takes part in collision. TreeCut clears it on particles created by
+    /// a transition until the transition ends; there is no collision stage yet, so this flag
+    /// only records the contract for one.
+    pub fn collides(&self, p: ParticleId) -> bool {
+        self.collides[p.index()]
+    }
+
+    /// Sets the collision flag (see [`SoftBody::collides`]).
+    pub fn set_collides(&mut self, p: ParticleId, collides: bool) {
+        self.collides[p.index()] = collides;
+    }
+
+    /// Adds a full-weight link; see [`SoftBody::add_link_weighted`].
+    pub fn add_link(
+        &mut self,
+        a: ParticleId,
+        b: ParticleId,
+        rest: f32,
+        compliance: f32,
+    ) -> Result<LinkId, SoftBodyError> {
+        self.add_link_weighted(a, b, rest, compliance, 1.0)
+    }
+
+    /// Adds a distance link between two particles with a rest length, a compliance (already
+    /// scaled, see [`crate::Material`]) and a blend weight in 0..=1 multiplying its stiffness.
+    pub fn add_link_weighted(
+        &mut self,
+        a: ParticleId,
+        b: ParticleId,
+        rest: f32,
+        compliance: f32,
+        weight: f32,
+    ) -> Result<LinkId, SoftBodyError> {
+        self.check_particle(a)?;
+        self.check_particle(b)?;
+        if a == b {
+            return Err(SoftBodyError::SelfLink(a.index()));
+        }
+        if !(rest.is_finite() && rest >= 0.0) {
+            return Err(SoftBodyError::BadLinkParameter {
+                what: "rest length",
+                value: rest,
+            });
+        }
+        if !(compliance.is_finite() && compliance >= 0.0) {
+            return Err(SoftBodyError::BadLinkParameter {
+                what: "compliance",
+                value: compliance,
+            });
+        }
+        if !(0.0..=1.0).contains(&weight) {
+            return Err(SoftBodyError::BadLinkParameter {
+                what: "blend weight",
+                value: weight,
+            });
+        }
+        Ok(self.links.add(a.0, b.0, rest, compliance, weight))
+    }
+
+    pub(crate) fn add_link_raw(
+        &mut self,
+        a: u32,
+        b: u32,
+        rest: f32,
+        compliance: f32,
+        weight: f32,
+    ) -> LinkId {
+        self.links.add(a, b, rest, compliance, weight)
+    }
+
+    fn check_link(&self, id: LinkId) -> Result<(), SoftBodyError> {
+        if self.links.contains(id) {
+            Ok(())
+        } else {
+            Err(SoftBodyError::OutOfRange {
+                what: "link",
+                index: id.index(),
+                len: self.links.len(),
+            })
+        }
+    }
+
+    /// Removes a link in O(1); the other links compute exactly what they did before
+    /// (see the crate docs, *colouring, deletion, determinism*).
+    pub fn remove_link(&mut self, id: LinkId) -> Result<(), SoftBodyError> {
+        self.check_link(id)?;
+        self.links.remove(id);
+        Ok(())
+    }
+
+    /// Sets a link's blend weight (0..=1).
+    pub fn set_link_weight(&mut self, id: LinkId, weight: f32) -> Result<(), SoftBodyError> {
+        self.check_link(id)?;
+        if !(0.0..=1.0).contains(&weight) {
+            return Err(SoftBodyError::BadLinkParameter {
+                what: "blend weight",
+                value: weight,
+            });
+        }
+        self.links.set_weight(id, weight);
+        Ok(())
+    }
+
+    pub(crate) fn set_link_weight_raw(&mut self, id: LinkId, weight: f32) {
+        self.links.set_weight(id, weight);
+    }
+
+    /// A link's description, if it is live.
+    pub fn link(&self, id: LinkId) -> Option<LinkInfo> {
+        self.links.contains(id).then(|| self.links.info(id))
+    }
+
+    /// All plain links, in solve order (colour batches, then the ordered overflow batch).
+    pub fn links(&self) -> impl Iterator<Item = LinkInfo> + '_ {
+        self.links.iter()
+    }
+
+    /// Number of plain links (group links not included).
+    pub fn link_count(&self) -> usize {
+        self.links.len()
+    }
+
+    /// Number of group links (links to the centroid of a group, used by TreeCut transitions).
+    pub fn group_link_count(&self) -> usize {
+        self.groups.link_count()
+    }
+
+    /// Number of colour batches and their sizes.
+    pub fn batch_sizes(&self) -> Vec<usize> {
+        self.links.batch_sizes()
+    }
+
+    /// The links incident to a particle (O(degree)).
+    pub fn incident_links(&self, p: ParticleId) -> impl ExactSizeIterator<Item = LinkId> + '_ {
+        self.links.incident(p.0).iter().map(|&(l, _)| l)
+    }
+
+    /// The particles linked to `p` by plain links (O(degree), without touching the links).
+    pub fn neighbours(&self, p: ParticleId) -> impl ExactSizeIterator<Item = ParticleId> + '_ {
+        self.links.incident(p.0).iter().map(|&(_, q)| ParticleId(q))
+    }
+
+    /// Incident links with the particle at the other end.
+    pub(crate) fn incident_raw(&self, p: u32) -> &[(LinkId, u32)] {
+        self.links.incident(p)
+    }
+
+    /// Removes a particle and its links. The last particle moves into the freed slot; the
+    /// return value is the id it had before (None if `p` was the last one). Group links must
+    /// no longer refer to `p`.
+    pub fn remove_particle(&mut self, p: ParticleId) -> Result<Option<ParticleId>, SoftBodyError> {
+        let i = self.check_particle(p)?;
+        if self.groups.references(p.0) {
+            return Err(SoftBodyError::BadSetting(
+                "particle is still part of a group link",
+            ));
+        }
+        Ok(self.remove_particle_raw(i as u32))
+    }
+
+    pub(crate) fn remove_particle_raw(&mut self, p: u32) -> Option<ParticleId> {
+        self.links.remove_all_of(p);
+        let last = (self.positions.len() - 1) as u32;
+        self.links.move_particle(p, last);
+        let i = p as usize;
+        self.positions.swap_remove(i);
+        self.velocities.swap_remove(i);
+        self.masses.swap_remove(i);
+        self.forces.swap_remove(i);
+        self.collides.swap_remove(i);
+        self.prev.swap_remove(i);
+        self.anchors.retain(|a| a.particle != p);
+        if p != last {
+            for a in &mut self.anchors {
+                if a.particle == last {
+                    a.particle = p;
+                }
+            }
+            self.groups.rename_particle(last, p);
+            Some(ParticleId(last))
+        } else {
+            None
+        }
+    }
+
+    /// Creates a group (see [`crate::group`]) over `members` with their `masses`.
+    pub(crate) fn create_group(&mut self, members: &[u32], masses: &[f32], weight: f32) -> GroupId {
+        self.groups.create(members, masses, weight)
+    }
+
+    pub(crate) fn add_group_target(
+        &mut self,
+        g: GroupId,
+        particle: u32,
+        rest: f32,
+        compliance: f32,
+    ) {
+        self.groups.get_mut(g).targets.push(GroupTarget {
+            particle,
+            rest,
+            compliance,
+            lambda: 0.0,
+        });
+    }
+
+    pub(crate) fn set_group_weight(&mut self, g: GroupId, weight: f32) {
+        self.groups.get_mut(g).weight = weight;
+    }
+
+    pub(crate) fn group(&self, g: GroupId) -> &crate::group::Group {
+        self.groups.get(g)
+    }
+
+    pub(crate) fn remove_group(&mut self, g: GroupId) {
+        self.groups.remove(g);
+    }
+
+    pub(crate) fn groups(&self) -> impl Iterator<Item = &crate::group::Group> + '_ {
+        self.groups.groups.iter().filter(|g| g.live)
+    }
+
+    /// Sum of all particle masses.
+    pub fn total_mass(&self) -> f64 {
+        self.masses.iter().map(|&m| m as f64).sum()
+    }
+
+    /// Total linear momentum `Σ m v` (accumulated in f64).
+    pub fn total_momentum(&self) -> glam::DVec3 {
+        let mut s = glam::DVec3::ZERO;
+        for (v, &m) in self.velocities.iter().zip(&self.masses) {
+            s += v.truncate().as_dvec3() * m as f64;
+        }
+        s
+    }
+
+    /// Advances the body by `settings.dt`: per substep, predict positions from velocities,
+    /// gravity and external forces, run `iterations` sweeps over the colour batches and the
+    /// group links, then derive velocities from the displacement.
+    pub fn step(&mut self) {
+        let s = self.settings;
+        let n = s.substeps;
+        let h = s.dt / n as f32;
+        let inv_h = 1.0 / h;
+        let inv_h2 = inv_h * inv_h;
+        let damp = (-s.damping * h).exp();
+        let g = s.gravity.extend(0.0);
+        for sub in 0..n {
+            for (((x, v), f), prev) in self
+                .positions
+                .iter_mut()
+                .zip(self.velocities.iter_mut())
+                .zip(&self.forces)
+                .zip(self.prev.iter_mut())
+            {
+                let w = x.w;
+                let free = if w > 0.0 { 1.0 } else { 0.0 };
+                // Damping acts on the carried velocity only, so it does not weaken static loads.
+                let vel = (*v * damp + (g + *f * w) * h) * free;
+                *v = vel;
+                *prev = *x;
+                *x += vel * h;
+            }
+            let t = (sub + 1) as f32 / n as f32;
+            for a in &self.anchors {
+                let i = a.particle as usize;
+                let target = if sub + 1 == n {
+                    a.target
+                } else {
+                    a.start.lerp(a.target, t)
+                };
+                self.positions[i] = target.extend(self.positions[i].w);
+            }
+            self.links.reset_lambdas();
+            self.groups.reset_lambdas();
+            for _ in 0..s.iterations {
+                self.links.solve(&mut self.positions, inv_h2);
+                if !self.groups.is_empty() {
+                    self.groups.solve(&mut self.positions, inv_h2);
+                }
+            }
+            for ((v, x), prev) in self
+                .velocities
+                .iter_mut()
+                .zip(&self.positions)
+                .zip(&self.prev)
+            {
+                *v = (*x - *prev) * inv_h;
+            }
+        }
+        for a in &mut self.anchors {
+            a.start = a.target;
+        }
+    }
+
+    #[cfg(test)]
+    pub(crate) fn check_links(&self) {
+        self.links.check();
+    }
+}

@@ -1,0 +1,420 @@
+//! Link storage: graph-coloured batches in structure-of-arrays form, stable link ids and
+//! per-particle incident-link lists.
+//!
+//! # Colouring
+//! A link goes into the first colour batch in which neither of its particles has a link yet
+//! (first fit, using a 64-bit colour mask per particle, so insertion is O(1)). Links are
+//! coloured in the order they are added, so the same sequence of additions and removals
+//! always gives the same batches: colouring is deterministic. A particle that already has
+//! links in all 64 colours sends further links to an *ordered overflow batch*, solved
+//! sequentially after the colour batches (only very unbalanced cuts get there).
+//!
+//! # Deletion cannot change the other links
+//! Batches are solved in colour order; inside a batch no two links share a particle, so each
+//! link reads and writes only its own two particles and its result does not depend on where
+//! it sits in the batch (the lane and scalar kernels compute the same bits, see
+//! [`crate::kernel`]). Removing a link is therefore an O(1) swap-remove inside its batch: it
+//! reorders that batch only, and every surviving link computes exactly what it computed
+//! before (a link of weight 0 and a deleted link are indistinguishable). The overflow batch,
+//! whose order matters, removes in order (O(overflow length)), as the paper does.
+
+use crate::ids::{LinkId, ParticleId};
+use crate::kernel::{self, Block};
+use glam::Vec4;
+
+/// Number of colours tracked by the per-particle masks.
+const COLOURS: usize = 64;
+/// Batch index used for the ordered overflow batch in a link's slot.
+const OVERFLOW: u32 = COLOURS as u32;
+/// Slot marker of a free link id.
+const FREE: u32 = u32::MAX;
+
+/// A batch of links in blocks of four (see [`Block`]); lanes past `len` are unused.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Batch {
+    blocks: Vec<Block>,
+    len: usize,
+}
+
+impl Batch {
+    fn push(&mut self, a: u32, b: u32, rest: f32, compliance: f32, weight: f32, id: LinkId) -> u32 {
+        let i = self.len;
+        if i % 4 == 0 {
+            self.blocks.push(Block::default());
+        }
+        let blk = &mut self.blocks[i / 4];
+        let k = i % 4;
+        blk.a[k] = a;
+        blk.b[k] = b;
+        blk.rest[k] = rest;
+        blk.compliance[k] = compliance;
+        blk.weight[k] = weight;
+        blk.lambda[k] = 0.0;
+        blk.id[k] = id.0;
+        self.len += 1;
+        i as u32
+    }
+    /// Swap-removes entry `i`; returns the id of the link moved into `i`, if any.
+    fn swap_remove(&mut self, i: usize) -> Option<LinkId> {
+        let last = self.len - 1;
+        let moved = if i != last {
+            let src = self.blocks[last / 4];
+            self.blocks[i / 4].copy_lane(i % 4, &src, last % 4);
+            Some(LinkId(src.id[last % 4]))
+        } else {
+            None
+        };
+        self.len = last;
+        if last % 4 == 0 {
+            self.blocks.pop();
+        }
+        moved
+    }
+    /// Removes entry `i` keeping the order of the rest.
+    fn ordered_remove(&mut self, i: usize) {
+        for k in i..self.len - 1 {
+            let src = self.blocks[(k + 1) / 4];
+            self.blocks[k / 4].copy_lane(k % 4, &src, (k + 1) % 4);
+        }
+        self.swap_remove(self.len - 1);
+    }
+    #[inline]
+    fn lane(&self, i: usize) -> (&Block, usize) {
+        (&self.blocks[i / 4], i % 4)
+    }
+    pub(crate) fn len(&self) -> usize {
+        self.len
+    }
+    fn info(&self, i: usize) -> LinkInfo {
+        let (blk, k) = self.lane(i);
+        LinkInfo {
+            id: LinkId(blk.id[k]),
+            a: ParticleId(blk.a[k]),
+            b: ParticleId(blk.b[k]),
+            rest: blk.rest[k],
+            compliance: blk.compliance[k],
+            weight: blk.weight[k],
+        }
+    }
+}
+
+/// Where a link lives: its batch (colour, or [`OVERFLOW`]) and its index inside it.
+#[derive(Clone, Copy, Debug)]
+struct Slot {
+    batch: u32,
+    index: u32,
+}
+
+/// A read-only view of one link, for debug drawing and inspection.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LinkInfo {
+    /// Stable id of the link.
+    pub id: LinkId,
+    /// First particle.
+    pub a: ParticleId,
+    /// Second particle.
+    pub b: ParticleId,
+    /// Rest length.
+    pub rest: f32,
+    /// Compliance (inverse stiffness) after scaling.
+    pub compliance: f32,
+    /// Blend weight in 0..=1 multiplying the stiffness.
+    pub weight: f32,
+}
+
+/// All distance links of a body.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct LinkStore {
+    batches: Vec<Batch>,
+    overflow: Batch,
+    slots: Vec<Slot>,
+    free: Vec<u32>,
+    colours: Vec<u64>,
+    /// Per particle: its links and, for each, the particle at the other end (so that walking a
+    /// neighbourhood never touches the link blocks).
+    incident: Vec<Vec<(LinkId, u32)>>,
+    /// Emptied incident lists of removed particles, reused so that adding a particle does
+    /// not allocate (transitions add and remove particles all the time).
+    spare_lists: Vec<Vec<(LinkId, u32)>>,
+    len: usize,
+}
+
+impl LinkStore {
+    /// Number of live links.
+    pub(crate) fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Grows the per-particle tables to `n` particles.
+    pub(crate) fn add_particle(&mut self) {
+        self.colours.push(0);
+        let list = self
+            .spare_lists
+            .pop()
+            .unwrap_or_else(|| Vec::with_capacity(16));
+        self.incident.push(list);
+    }
+
+    /// Inserts a link (indices already validated) and returns its id.
+    pub(crate) fn add(
+        &mut self,
+        a: u32,
+        b: u32,
+        rest: f32,
+        compliance: f32,
+        weight: f32,
+    ) -> LinkId {
+        let id = match self.free.pop() {
+            Some(i) => LinkId(i),
+            None => {
+                self.slots.push(Slot {
+                    batch: FREE,
+                    index: 0,
+                });
+                LinkId::new(self.slots.len() - 1)
+            }
+        };
+        let used = self.colours[a as usize] | self.colours[b as usize];
+        let colour = (!used).trailing_zeros();
+        let slot = if (colour as usize) < COLOURS {
+            let c = colour as usize;
+            if self.batches.len() <= c {
+                self.batches.resize_with(c + 1, Batch::default);
+            }
+            let bit = 1u64 << c;
+            self.colours[a as usize] |= bit;
+            self.colours[b as usize] |= bit;
+            let index = self.batches[c].push(a, b, rest, compliance, weight, id);
+            Slot {
+                batch: colour,
+                index,
+            }
+        } else {
+            let index = self.overflow.push(a, b, rest, compliance, weight, id);
+            Slot {
+                batch: OVERFLOW,
+                index,
+            }
+        };
+        self.slots[id.index()] = slot;
+        self.incident[a as usize].push((id, b));
+        self.incident[b as usize].push((id, a));
+        self.len += 1;
+        id
+    }
+
+    /// Whether `id` names a live link.
+    pub(crate) fn contains(&self, id: LinkId) -> bool {
+        self.slots.get(id.index()).is_some_and(|s| s.batch != FREE)
+    }
+
+    fn batch(&self, batch: u32) -> &Batch {
+        if batch == OVERFLOW {
+            &self.overflow
+        } else {
+            &self.batches[batch as usize]
+        }
+    }
+    fn batch_mut(&mut self, batch: u32) -> &mut Batch {
+        if batch == OVERFLOW {
+            &mut self.overflow
+        } else {
+            &mut self.batches[batch as usize]
+        }
+    }
+
+    /// Removes a live link: O(1) swap-remove in a colour batch (ordered in the overflow batch).
+    pub(crate) fn remove(&mut self, id: LinkId) {
+        let slot = self.slots[id.index()];
+        debug_assert!(slot.batch != FREE);
+        let i = slot.index as usize;
+        let (a, b) = {
+            let (blk, k) = self.batch(slot.batch).lane(i);
+            (blk.a[k], blk.b[k])
+        };
+        if slot.batch == OVERFLOW {
+            self.overflow.ordered_remove(i);
+            for k in i..self.overflow.len() {
+                let (blk, lane) = self.overflow.lane(k);
+                self.slots[blk.id[lane] as usize].index = k as u32;
+            }
+        } else {
+            let bit = 1u64 << slot.batch;
+            self.colours[a as usize] &= !bit;
+            self.colours[b as usize] &= !bit;
+            if let Some(moved) = self.batches[slot.batch as usize].swap_remove(i) {
+                self.slots[moved.index()].index = i as u32;
+            }
+        }
+        for p in [a, b] {
+            let list = &mut self.incident[p as usize];
+            let at = list
+                .iter()
+                .position(|&(l, _)| l == id)
+                .expect("incident list out of sync");
+            list.swap_remove(at);
+        }
+        self.slots[id.index()] = Slot {
+            batch: FREE,
+            index: 0,
+        };
+        self.free.push(id.0);
+        self.len -= 1;
+    }
+
+    /// Removes every link of particle `p` (as [`LinkStore::remove`] for each, without reading
+    /// the ends back from the blocks: the incident list knows them).
+    pub(crate) fn remove_all_of(&mut self, p: u32) {
+        let mut list = std::mem::take(&mut self.incident[p as usize]);
+        for &(id, other) in &list {
+            let slot = self.slots[id.index()];
+            let i = slot.index as usize;
+            if slot.batch == OVERFLOW {
+                self.overflow.ordered_remove(i);
+                for k in i..self.overflow.len() {
+                    let (blk, lane) = self.overflow.lane(k);
+                    self.slots[blk.id[lane] as usize].index = k as u32;
+                }
+            } else {
+                let bit = 1u64 << slot.batch;
+                self.colours[p as usize] &= !bit;
+                self.colours[other as usize] &= !bit;
+                if let Some(moved) = self.batches[slot.batch as usize].swap_remove(i) {
+                    self.slots[moved.index()].index = i as u32;
+                }
+            }
+            let olist = &mut self.incident[other as usize];
+            let at = olist
+                .iter()
+                .position(|&(l, _)| l == id)
+                .expect("incident list out of sync");
+            olist.swap_remove(at);
+            self.slots[id.index()] = Slot {
+                batch: FREE,
+                index: 0,
+            };
+            self.free.push(id.0);
+            self.len -= 1;
+        }
+        list.clear();
+        self.incident[p as usize] = list;
+    }
+
+    /// Links incident to particle `p`, each with the particle at its other end.
+    pub(crate) fn incident(&self, p: u32) -> &[(LinkId, u32)] {
+        &self.incident[p as usize]
+    }
+
+    /// The full description of a live link.
+    pub(crate) fn info(&self, id: LinkId) -> LinkInfo {
+        let slot = self.slots[id.index()];
+        self.batch(slot.batch).info(slot.index as usize)
+    }
+
+    /// Sets the blend weight of a live link.
+    #[inline]
+    pub(crate) fn set_weight(&mut self, id: LinkId, weight: f32) {
+        let slot = self.slots[id.index()];
+        let i = slot.index as usize;
+        self.batch_mut(slot.batch).blocks[i / 4].weight[i % 4] = weight;
+    }
+
+    /// Removes particle `p` (which must have no links left) by moving particle `last` into
+    /// its slot: rewrites `last`'s links and tables. `last == p` just drops the tail.
+    pub(crate) fn move_particle(&mut self, p: u32, last: u32) {
+        debug_assert!(self.incident[p as usize].is_empty());
+        if p != last {
+            let moved = std::mem::take(&mut self.incident[last as usize]);
+            for &(id, other) in &moved {
+                for e in &mut self.incident[other as usize] {
+                    if e.0 == id {
+                        e.1 = p;
+                    }
+                }
+                let slot = self.slots[id.index()];
+                let i = slot.index as usize;
+                let blk = &mut self.batch_mut(slot.batch).blocks[i / 4];
+                let k = i % 4;
+                if blk.a[k] == last {
+                    blk.a[k] = p;
+                }
+                if blk.b[k] == last {
+                    blk.b[k] = p;
+                }
+            }
+            // The (empty) list moves to `last`'s slot and from there to the spare lists.
+            self.incident[last as usize] = std::mem::replace(&mut self.incident[p as usize], moved);
+            self.colours[p as usize] = self.colours[last as usize];
+        }
+        self.colours.pop();
+        if let Some(list) = self.incident.pop() {
+            debug_assert!(list.is_empty());
+            self.spare_lists.push(list);
+        }
+    }
+
+    /// Resets all accumulated multipliers (start of a substep).
+    pub(crate) fn reset_lambdas(&mut self) {
+        for bt in self
+            .batches
+            .iter_mut()
+            .chain(std::iter::once(&mut self.overflow))
+        {
+            for blk in &mut bt.blocks {
+                blk.lambda = [0.0; 4];
+            }
+        }
+    }
+
+    /// One sweep over all links: colour batches in order, then the ordered overflow batch.
+    pub(crate) fn solve(&mut self, p: &mut [Vec4], inv_h2: f32) {
+        for bt in &mut self.batches {
+            kernel::solve_batch(p, &mut bt.blocks, bt.len, inv_h2);
+        }
+        if self.overflow.len > 0 {
+            kernel::solve_ordered(p, &mut self.overflow.blocks, self.overflow.len, inv_h2);
+        }
+    }
+
+    /// Iterates over all live links (batch order).
+    pub(crate) fn iter(&self) -> impl Iterator<Item = LinkInfo> + '_ {
+        self.batches
+            .iter()
+            .chain(std::iter::once(&self.overflow))
+            .flat_map(|bt| (0..bt.len()).map(move |i| bt.info(i)))
+    }
+
+    /// Sizes of the colour batches (for inspection and tests).
+    pub(crate) fn batch_sizes(&self) -> Vec<usize> {
+        self.batches.iter().map(Batch::len).collect()
+    }
+
+    /// Checks internal consistency (tests): every slot points at its link, colours match.
+    #[cfg(test)]
+    pub(crate) fn check(&self) {
+        let mut count = 0;
+        let mut colours = vec![0u64; self.colours.len()];
+        for (c, bt) in self.batches.iter().enumerate() {
+            assert_eq!(bt.blocks.len(), bt.len.div_ceil(4));
+            for i in 0..bt.len() {
+                let l = bt.info(i);
+                let s = self.slots[l.id.index()];
+                assert_eq!((s.batch as usize, s.index as usize), (c, i));
+                let bit = 1u64 << c;
+                let (a, b) = (l.a.index(), l.b.index());
+                assert_eq!(colours[a] & bit, 0, "colour clash");
+                assert_eq!(colours[b] & bit, 0, "colour clash");
+                colours[a] |= bit;
+                colours[b] |= bit;
+                assert!(self.incident[a].contains(&(l.id, b as u32)));
+                assert!(self.incident[b].contains(&(l.id, a as u32)));
+                count += 1;
+            }
+        }
+        assert_eq!(colours, self.colours);
+        count += self.overflow.len();
+        assert_eq!(count, self.len);
+        let inc: usize = self.incident.iter().map(Vec::len).sum();
+        assert_eq!(inc, 2 * self.len);
+    }
+}

@@ -1,0 +1,205 @@
+//! Surface reconstruction: a position for every finest-level vertex from the current
+//! particles, for rendering and for measuring error against a full-resolution run.
+//!
+//! Every vertex is covered by exactly one particle (the active node containing it, or during
+//! a transition the real child containing it). Each particle gets a rotation `R_j` by shape
+//! matching its linked neighbourhood (current vs rest offsets, see [`crate::shape`]).
+//!
+//! * [`ReconstructionMode::Rigid`]: `x_v = x_j + R_j (rest_v − rest_j)` — each node carries its
+//!   vertices as a rigid patch. Exact at the finest cut; leaves small cracks between patches.
+//! * [`ReconstructionMode::Smooth`]: the rigid predictions of the covering particle and its
+//!   linked neighbours are blended with weights `(1 − (d/s_k)²)²` of the rest distance `d`
+//!   from neighbour `k` to the vertex, where `s_k` is `k`'s shortest link. A neighbour never
+//!   reaches the vertices of a node at the finest level (`d ≥ s`), so this is exact there too,
+//!   while patches of coarse nodes bend towards their neighbours instead of meeting at cracks.
+//!
+//! Which is better was measured (test `smooth_reconstruction_beats_rigid`): restricting a
+//! simulated full-resolution swinging net to uniform coarser cuts and reconstructing it,
+//! `Smooth` gives the lower RMS error, so it is the default.
+
+use super::{TreeCutError, TreeCutSoftBody};
+use crate::ids::ParticleId;
+use crate::shape;
+use glam::{Mat3, Quat, Vec3};
+
+/// How finest vertices are placed from the particles.
+///
+/// Each particle gets the shape-matching rotation `R_j` of its linked neighbourhood. `Rigid`
+/// carries a node's vertices rigidly (`x_j + R_j (rest_v − rest_j)`); `Smooth` blends that with
+/// the same prediction from each linked neighbour `k`, weighted `(1 − (d/s_k)²)²` by the rest
+/// distance `d` to the vertex (`s_k` = `k`'s shortest link, so both are exact at the finest cut).
+/// `Smooth` measured lower RMS error against full-resolution states (test
+/// `smooth_reconstruction_beats_rigid`: 0.0023/0.0037/0.0076 vs 0.0026/0.0046/0.0100 of the
+/// diagonal at levels 1/2/3), so it is the default.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ReconstructionMode {
+    /// Each node moves its vertices rigidly with its shape-matching rotation.
+    Rigid,
+    /// Rigid predictions of a node and its neighbours, blended by rest distance.
+    #[default]
+    Smooth,
+}
+
+/// Error of a reconstruction against a reference, relative to the cloth's rest diagonal.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct ReconstructionError {
+    /// Root mean square vertex distance / rest diagonal.
+    pub rms: f32,
+    /// Largest vertex distance / rest diagonal.
+    pub max: f32,
+}
+
+/// RMS and maximum distance between two vertex sets, divided by `diagonal`.
+pub fn reconstruction_error(
+    reconstructed: &[Vec3],
+    reference: &[Vec3],
+    diagonal: f32,
+) -> ReconstructionError {
+    let n = reconstructed.len().min(reference.len());
+    if n == 0 {
+        return ReconstructionError::default();
+    }
+    let mut sum = 0f64;
+    let mut max = 0f32;
+    for (a, b) in reconstructed.iter().zip(reference) {
+        let d = a.distance(*b);
+        sum += (d as f64) * (d as f64);
+        max = max.max(d);
+    }
+    ReconstructionError {
+        rms: ((sum / n as f64).sqrt() as f32) / diagonal,
+        max: max / diagonal,
+    }
+}
+
+impl TreeCutSoftBody {
+    /// Shape-matching rotation of every particle (updates the per-node warm-start cache).
+    fn particle_rotations(&mut self, out: &mut Vec<Quat>) {
+        let h = &*self.hierarchy;
+        let pos = self.body.positions();
+        out.clear();
+        for (p, &node) in self.particle_node.iter().enumerate() {
+            let x_p = pos[p].truncate();
+            let rest_p = h.rest_position(node);
+            let mut cov = Mat3::ZERO;
+            for q in self.body.neighbours(ParticleId::new(p)) {
+                let q_node = self.particle_node[q.index()];
+                shape::accumulate(
+                    &mut cov,
+                    pos[q.index()].truncate() - x_p,
+                    h.rest_position(q_node) - rest_p,
+                );
+            }
+            let r = shape::rotation_of(&cov, self.rotation[node.index()]);
+            self.rotation[node.index()] = r;
+            out.push(r);
+        }
+    }
+
+    /// Writes a position for every finest-level vertex into `out` (length = vertex count),
+    /// using [`crate::TreeCutSettings::reconstruction`]. Takes `&mut self` only to update
+    /// the per-node rotation cache that warm-starts shape matching.
+    pub fn reconstruct(&mut self, out: &mut [Vec3]) -> Result<(), TreeCutError> {
+        let mode = self.settings.reconstruction;
+        self.reconstruct_with(mode, out)
+    }
+
+    /// [`TreeCutSoftBody::reconstruct`] with an explicit mode.
+    pub fn reconstruct_with(
+        &mut self,
+        mode: ReconstructionMode,
+        out: &mut [Vec3],
+    ) -> Result<(), TreeCutError> {
+        let expected = self.hierarchy.vertex_count();
+        if out.len() != expected {
+            return Err(TreeCutError::BufferLength {
+                got: out.len(),
+                expected,
+            });
+        }
+        let mut rot = Vec::new();
+        self.particle_rotations(&mut rot);
+        let h = &*self.hierarchy;
+        let pos = self.body.positions();
+        let rest_of = |v: u32| h.rest_position(h.leaf_of_vertex(v));
+        match mode {
+            ReconstructionMode::Rigid => {
+                for (p, &node) in self.particle_node.iter().enumerate() {
+                    let (x, r, rest) = (pos[p].truncate(), rot[p], h.rest_position(node));
+                    for &v in h.vertices(node) {
+                        out[v as usize] = x + r * (rest_of(v) - rest);
+                    }
+                }
+            }
+            ReconstructionMode::Smooth => {
+                // Support radius per particle: its shortest link (rest distance to a neighbour).
+                let support: Vec<f32> = (0..self.particle_node.len())
+                    .map(|p| {
+                        let rest = h.rest_position(self.particle_node[p]);
+                        self.body
+                            .neighbours(ParticleId::new(p))
+                            .map(|q| rest.distance(h.rest_position(self.particle_node[q.index()])))
+                            .fold(f32::INFINITY, f32::min)
+                    })
+                    .collect();
+                for (p, &node) in self.particle_node.iter().enumerate() {
+                    let (x, r, rest) = (pos[p].truncate(), rot[p], h.rest_position(node));
+                    for &v in h.vertices(node) {
+                        let rv = rest_of(v);
+                        // The covering particle always has weight 1 at its own rest position
+                        // and at least a floor elsewhere, so the blend is well defined.
+                        let own = rv - rest;
+                        let mut w_sum = kernel(own.length(), support[p]).max(1e-3);
+                        let mut acc = (x + r * own) * w_sum;
+                        for q in self.body.neighbours(ParticleId::new(p)) {
+                            let qi = q.index();
+                            let q_rest = h.rest_position(self.particle_node[qi]);
+                            let w = kernel((rv - q_rest).length(), support[qi]);
+                            if w > 0.0 {
+                                acc += (pos[qi].truncate() + rot[qi] * (rv - q_rest)) * w;
+                                w_sum += w;
+                            }
+                        }
+                        out[v as usize] = acc / w_sum;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Reconstructs into `scratch` and compares with `reference` (one position per vertex),
+    /// relative to the hierarchy's rest diagonal.
+    pub fn error_against(
+        &mut self,
+        reference: &[Vec3],
+        scratch: &mut Vec<Vec3>,
+    ) -> Result<ReconstructionError, TreeCutError> {
+        let n = self.hierarchy.vertex_count();
+        if reference.len() != n {
+            return Err(TreeCutError::BufferLength {
+                got: reference.len(),
+                expected: n,
+            });
+        }
+        scratch.resize(n, Vec3::ZERO);
+        self.reconstruct(scratch)?;
+        Ok(reconstruction_error(
+            scratch,
+            reference,
+            self.hierarchy.rest_diagonal(),
+        ))
+    }
+}
+
+/// Smooth compact kernel: 1 at 0, 0 from `support` on.
+#[inline]
+fn kernel(d: f32, support: f32) -> f32 {
+    let t = d / support;
+    if t >= 1.0 {
+        0.0
+    } else {
+        let s = 1.0 - t * t;
+        s * s
+    }
+}

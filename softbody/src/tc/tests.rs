@@ -1,0 +1,429 @@
+//! Tests of TreeCut-SoftBody: equivalence with the plain solver at the finest cut,
+//! conservation and determinism under random transitions, refusals, pins, reconstruction.
+
+use super::*;
+use crate::{GridCloth, ReconstructionMode};
+use treecut::GridSpec;
+
+fn spec(n: u32) -> GridSpec {
+    GridSpec {
+        cols: n,
+        rows: n,
+        origin: Vec3::ZERO,
+        u: Vec3::new(1.0 / (n - 1) as f32, 0.0, 0.0),
+        v: Vec3::new(0.0, 0.0, 1.0 / (n - 1) as f32),
+        vertex_mass: 1.0 / (n * n) as f32,
+    }
+}
+
+fn settings(gravity: bool) -> TreeCutSettings {
+    TreeCutSettings {
+        solver: SolverSettings {
+            gravity: if gravity {
+                Vec3::new(0.0, -9.81, 0.0)
+            } else {
+                Vec3::ZERO
+            },
+            damping: if gravity { 0.5 } else { 0.0 },
+            iterations: 10,
+            ..SolverSettings::default()
+        },
+        blend_steps: 4,
+        ..TreeCutSettings::default()
+    }
+}
+
+fn body(n: u32, level: u32, gravity: bool) -> TreeCutSoftBody {
+    let h = Hierarchy::grid(&spec(n)).unwrap();
+    let cut = Cut::uniform(&h, level);
+    TreeCutSoftBody::new(h, cut, settings(gravity)).unwrap()
+}
+
+fn pin_corners(tc: &mut TreeCutSoftBody, n: u32) {
+    let s = spec(n);
+    for v in [0, n - 1, n * (n - 1), n * n - 1] {
+        let (i, j) = (v % n, v / n);
+        tc.pin_vertex(v, s.position(i, j)).unwrap();
+    }
+}
+
+/// A tiny deterministic generator (xorshift) so the random tests need no dependency.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n as u64) as usize
+    }
+}
+
+/// Tries one random operation; a refused one must change nothing.
+fn random_op(tc: &mut TreeCutSoftBody, rng: &mut Rng) -> bool {
+    let active = tc.cut().active();
+    let node = active[rng.below(active.len())];
+    let before = (
+        tc.particle_count(),
+        tc.link_count(),
+        tc.group_link_count(),
+        tc.cut().clone(),
+    );
+    let pos = tc.particle_positions().to_vec();
+    let result = if rng.below(2) == 0 {
+        tc.begin_refine(node)
+    } else {
+        match tc.hierarchy().parent(node) {
+            Some(p) => tc.begin_coarse(p),
+            None => tc.begin_refine(node),
+        }
+    };
+    if result.is_err() {
+        assert_eq!(
+            before,
+            (
+                tc.particle_count(),
+                tc.link_count(),
+                tc.group_link_count(),
+                tc.cut().clone()
+            )
+        );
+        assert_eq!(pos, tc.particle_positions());
+    }
+    result.is_ok()
+}
+
+fn bits(p: &[Vec4]) -> Vec<[u32; 4]> {
+    p.iter().map(|v| v.to_array().map(f32::to_bits)).collect()
+}
+
+/// At the finest cut the TreeCut body has exactly the plain grid cloth's links, and steps
+/// bit-identically to it (particles are in another order; compared per vertex).
+#[test]
+fn finest_cut_matches_plain_solver_step_for_step() {
+    let n = 17;
+    let s = spec(n);
+    let h = Hierarchy::grid(&s).unwrap();
+    let mut tc = TreeCutSoftBody::new(
+        h,
+        Cut::uniform(&Hierarchy::grid(&s).unwrap(), 0),
+        settings(true),
+    )
+    .unwrap();
+    pin_corners(&mut tc, n);
+    let g = GridCloth {
+        cols: n,
+        rows: n,
+        origin: s.origin,
+        u: s.u,
+        v: s.v,
+        vertex_mass: s.vertex_mass,
+        shear: true,
+        bend: false,
+        material: tc.settings().material,
+    };
+    let mut plain = g.build(tc.settings().solver).unwrap();
+    for c in g.corners() {
+        plain.set_pinned(c, true).unwrap();
+    }
+    // Same link set (as vertex pairs with rest lengths).
+    let vertex = |tc: &TreeCutSoftBody, p: ParticleId| {
+        tc.hierarchy()
+            .vertex_of_leaf(tc.particle_nodes()[p.index()])
+            .unwrap()
+    };
+    let mut tc_links: Vec<(u32, u32, u32)> = tc
+        .links()
+        .map(|l| {
+            let (a, b) = (vertex(&tc, l.a), vertex(&tc, l.b));
+            (a.min(b), a.max(b), l.rest.to_bits())
+        })
+        .collect();
+    let mut plain_links: Vec<(u32, u32, u32)> = plain
+        .links()
+        .map(|l| (l.a.0.min(l.b.0), l.a.0.max(l.b.0), l.rest.to_bits()))
+        .collect();
+    tc_links.sort_unstable();
+    plain_links.sort_unstable();
+    assert_eq!(tc_links, plain_links);
+    assert_eq!(tc.body().batch_sizes(), plain.batch_sizes());
+    for step in 0..120 {
+        tc.step();
+        plain.step();
+        for (p, x) in tc.particle_positions().iter().enumerate() {
+            let v = vertex(&tc, ParticleId::new(p));
+            let y = plain.positions()[v as usize];
+            assert_eq!(
+                x.to_array().map(f32::to_bits),
+                y.to_array().map(f32::to_bits),
+                "step {step} vertex {v}"
+            );
+        }
+    }
+}
+
+/// Long random refine/coarse sequences while simulating: mass and momentum are conserved,
+/// the bookkeeping stays consistent, and the links are always the induced adjacency.
+#[test]
+fn random_transitions_conserve_mass_and_momentum() {
+    let n = 17;
+    let mut tc = body(n, 1, false);
+    let mut rng = Rng(0x9e3779b97f4a7c15);
+    for p in 0..tc.particle_count() {
+        let f = p as f32;
+        tc.set_particle_velocity(
+            ParticleId::new(p),
+            Vec3::new((f * 0.7).sin(), (f * 1.3).cos(), 0.3 * (f * 0.1).sin()),
+        )
+        .unwrap();
+    }
+    let mass0 = tc.total_mass();
+    let h_mass = tc.hierarchy().mass(tc.hierarchy().root()) as f64;
+    assert!((mass0 - h_mass).abs() < 1e-6 * h_mass);
+    let p0 = tc.total_momentum();
+    let scale: f64 = tc
+        .particle_velocities()
+        .iter()
+        .zip(tc.particle_masses())
+        .map(|(v, &m)| v.length() as f64 * m as f64)
+        .sum();
+    let (mut refines_ok, mut max_in_flight) = (0, 0);
+    let (mut worst_mass, mut worst_momentum) = (0f64, 0f64);
+    for step in 0..400 {
+        for _ in 0..3 {
+            refines_ok += random_op(&mut tc, &mut rng) as usize;
+        }
+        max_in_flight = max_in_flight.max(tc.transitions_in_flight());
+        tc.step();
+        tc.check();
+        let m = tc.total_mass();
+        assert!(
+            (m - mass0).abs() < 1e-5 * mass0,
+            "step {step}: mass {m} vs {mass0}"
+        );
+        let p = tc.total_momentum();
+        assert!(
+            (p - p0).length() < 1e-4 * scale,
+            "step {step}: momentum {p} vs {p0}"
+        );
+        assert!(tc.particle_positions().iter().all(|x| x.is_finite()));
+        worst_mass = worst_mass.max((m - mass0).abs() / mass0);
+        worst_momentum = worst_momentum.max((p - p0).length() / scale);
+    }
+    eprintln!(
+        "{refines_ok} operations, relative drift: mass {worst_mass:e}, momentum {worst_momentum:e}"
+    );
+    assert!(refines_ok > 100, "only {refines_ok} operations began");
+    assert!(max_in_flight >= 3);
+    tc.end_all();
+    tc.check();
+    assert_eq!(tc.group_link_count(), 0);
+    // Links are exactly the induced adjacency of the final cut.
+    let fresh = TreeCutSoftBody::new(
+        tc.hierarchy_arc().clone(),
+        tc.cut().clone(),
+        settings(false),
+    )
+    .unwrap();
+    let pairs = |t: &TreeCutSoftBody| {
+        let mut v: Vec<(NodeId, NodeId, u32)> = t
+            .links()
+            .map(|l| {
+                let (a, b) = (
+                    t.particle_nodes()[l.a.index()],
+                    t.particle_nodes()[l.b.index()],
+                );
+                (a.min(b), a.max(b), l.rest.to_bits())
+            })
+            .collect();
+        v.sort_unstable();
+        v
+    };
+    assert_eq!(pairs(&tc), pairs(&fresh));
+    assert!(tc.links().all(|l| l.weight == 1.0));
+}
+
+#[test]
+fn random_runs_are_bit_identical() {
+    let run = || {
+        let mut tc = body(17, 2, true);
+        pin_corners(&mut tc, 17);
+        let mut rng = Rng(42);
+        for _ in 0..200 {
+            random_op(&mut tc, &mut rng);
+            tc.step();
+        }
+        (bits(tc.particle_positions()), tc.particle_nodes().to_vec())
+    };
+    assert_eq!(run(), run());
+}
+
+#[test]
+fn refused_operations_change_nothing() {
+    let mut tc = body(17, 1, false);
+    let h = tc.hierarchy_arc().clone();
+    let leaf = h.nodes_at_level(0).first().unwrap();
+    assert!(matches!(
+        tc.begin_refine(leaf),
+        Err(TreeCutError::Cut(CutError::NotOnCut(_)))
+    ));
+    let node = tc.cut().active()[5];
+    tc.begin_refine(node).unwrap();
+    // The node's children and neighbours are locked now.
+    let child = h.children(node).first().unwrap();
+    assert!(matches!(
+        tc.begin_coarse(node),
+        Err(TreeCutError::Cut(CutError::Locked(_)))
+    ));
+    assert!(matches!(
+        tc.begin_refine(node),
+        Err(TreeCutError::Cut(CutError::NotOnCut(_)))
+    ));
+    let nb = tc.particle_nodes()[tc
+        .neighbours(tc.particle_of(child).unwrap())
+        .last()
+        .unwrap()
+        .index()];
+    assert!(tc.cut().is_locked(nb));
+    if !h.is_leaf(nb) {
+        assert!(matches!(
+            tc.begin_refine(nb),
+            Err(TreeCutError::Cut(CutError::Locked(_)))
+        ));
+    }
+    assert!(matches!(
+        tc.begin_refine(child),
+        Err(TreeCutError::Cut(CutError::IsLeaf(_)) | TreeCutError::Cut(CutError::Locked(_)))
+    ));
+    let mut out = vec![Vec3::ZERO; 3];
+    assert!(matches!(
+        tc.reconstruct(&mut out),
+        Err(TreeCutError::BufferLength { .. })
+    ));
+    assert!(tc.pin_vertex(100_000, Vec3::ZERO).is_err());
+    for _ in 0..4 {
+        tc.step();
+    }
+    assert_eq!(tc.transitions_in_flight(), 0);
+    assert!(!tc.cut().is_locked(nb));
+    tc.check();
+}
+
+#[test]
+fn swinging_net_stays_finite_and_settles() {
+    let n = 17;
+    let mut tc = body(n, 1, true);
+    pin_corners(&mut tc, n);
+    let mut rng = Rng(7);
+    for step in 0..900 {
+        if step < 300 && step % 3 == 0 {
+            random_op(&mut tc, &mut rng);
+        }
+        tc.step();
+        assert!(
+            tc.particle_positions().iter().all(|x| x.is_finite()),
+            "step {step}"
+        );
+    }
+    let speed = tc
+        .particle_velocities()
+        .iter()
+        .map(|v| v.length())
+        .fold(0.0f32, f32::max);
+    assert!(speed < 0.02, "still moving at {speed}");
+    // The pinned corners stayed where they were pinned.
+    let mut out = vec![Vec3::ZERO; (n * n) as usize];
+    tc.reconstruct_with(ReconstructionMode::Rigid, &mut out)
+        .unwrap();
+    assert!(out[0].distance(Vec3::ZERO) < 1e-5, "{}", out[0]);
+    // And the middle hangs below them.
+    assert!(out[(n * n / 2) as usize].y < -0.1);
+}
+
+/// Refining then coarsening a node of a resting cloth returns it (nearly) where it was.
+#[test]
+fn refine_then_coarse_on_resting_cloth_returns_close() {
+    let n = 17;
+    let mut tc = body(n, 1, true);
+    pin_corners(&mut tc, n);
+    for _ in 0..600 {
+        tc.step();
+    }
+    let diag = tc.hierarchy().rest_diagonal();
+    let mut before = vec![Vec3::ZERO; (n * n) as usize];
+    tc.reconstruct(&mut before).unwrap();
+    let node = tc.cut().active()[tc.cut().len() / 2 + 3];
+    let mut during = before.clone();
+    tc.begin_refine(node).unwrap();
+    // No pop: the reconstruction right after begin is where it was.
+    tc.reconstruct(&mut during).unwrap();
+    let pop = reconstruction_error(&during, &before, diag);
+    for _ in 0..10 {
+        tc.step();
+    }
+    tc.begin_coarse(node).unwrap();
+    for _ in 0..200 {
+        tc.step();
+    }
+    let mut after = before.clone();
+    tc.reconstruct(&mut after).unwrap();
+    let e = reconstruction_error(&after, &before, diag);
+    eprintln!("refine pop {pop:?}, after refine+coarse {e:?}");
+    assert!(pop.max < 0.01, "refine popped by {pop:?}");
+    assert!(e.max < 0.005, "did not return: {e:?}");
+}
+
+/// Reconstruction is exact at the finest cut, and the smooth mode beats the rigid one on
+/// coarse cuts of a simulated full-resolution net (the measurement behind the default).
+#[test]
+fn smooth_reconstruction_beats_rigid() {
+    let n = 33;
+    let mut fine = body(n, 0, true);
+    pin_corners(&mut fine, n);
+    let mut rng = Rng(3);
+    for step in 0..90 {
+        if step == 30 {
+            // A push so the net is not symmetric.
+            let p = ParticleId::new(rng.below(fine.particle_count()));
+            fine.set_particle_velocity(p, Vec3::new(2.0, 1.0, 0.0))
+                .unwrap();
+        }
+        fine.step();
+    }
+    let mut reference = vec![Vec3::ZERO; (n * n) as usize];
+    for (p, &node) in fine.particle_nodes().iter().enumerate() {
+        reference[fine.hierarchy().vertex_of_leaf(node).unwrap() as usize] =
+            fine.particle_positions()[p].truncate();
+    }
+    let mut out = reference.clone();
+    let diag = fine.hierarchy().rest_diagonal();
+    fine.reconstruct(&mut out).unwrap();
+    assert_eq!(reconstruction_error(&out, &reference, diag).max, 0.0);
+    for level in 1..=3 {
+        // Restrict the fine state to a uniform cut: each node at its vertices' centroid.
+        let mut coarse = body(n, level, true);
+        let h = coarse.hierarchy_arc().clone();
+        for p in 0..coarse.particle_count() {
+            let node = coarse.particle_nodes()[p];
+            let c = h
+                .vertices(node)
+                .iter()
+                .map(|&v| reference[v as usize])
+                .sum::<Vec3>()
+                / h.vertices(node).len() as f32;
+            coarse.set_particle_position(ParticleId::new(p), c).unwrap();
+        }
+        let mut errs = [ReconstructionError::default(); 2];
+        for (k, mode) in [ReconstructionMode::Rigid, ReconstructionMode::Smooth]
+            .into_iter()
+            .enumerate()
+        {
+            coarse.reconstruct_with(mode, &mut out).unwrap();
+            errs[k] = reconstruction_error(&out, &reference, diag);
+        }
+        eprintln!("level {level}: rigid {:?} smooth {:?}", errs[0], errs[1]);
+        assert!(errs[1].rms < errs[0].rms, "level {level}: {errs:?}");
+    }
+}
