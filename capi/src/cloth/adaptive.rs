@@ -1,0 +1,362 @@
+//! [`AdaptiveCloth`]: a TreeCut soft body driven by the feedback loop.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use glam::Vec3;
+use salience::{Camera, Light};
+use softbody::{DrawLink, TreeCutError, TreeCutSettings, TreeCutSoftBody};
+use treecut::{CutError, GridSpec, Hierarchy, NodeId, Op};
+
+use super::error::ClothError;
+use super::feedback::{Feedback, FeedbackSettings, node_radii};
+
+/// An operation undone within this many steps counts as flicker in [`ClothStats::undone_ops`].
+pub const UNDO_WINDOW_STEPS: u64 = 30;
+
+/// Counters and last measurements of an [`AdaptiveCloth`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ClothStats {
+    /// Steps taken.
+    pub steps: u64,
+    /// Feedback evaluations run.
+    pub evaluations: u64,
+    /// Refines begun (by feedback or explicitly).
+    pub refines: u64,
+    /// Coarses begun (by feedback or explicitly).
+    pub coarses: u64,
+    /// Operations the evaluator proposed that the body refused because a neighbouring
+    /// transition had locked the node (they are proposed again later).
+    pub refused: u64,
+    /// Operations that undid an operation on the same node begun within
+    /// [`UNDO_WINDOW_STEPS`] steps (a refine after a coarse of that node, or the reverse).
+    pub undone_ops: u64,
+    /// The node budget of the last evaluation (0 before the first).
+    pub node_budget: usize,
+    /// Wall time of the last step, evaluation included, in seconds.
+    pub last_step_seconds: f64,
+    /// Wall time of the last evaluation (salience, evaluator, beginning operations), seconds.
+    pub last_eval_seconds: f64,
+}
+
+/// A cloth whose simulated nodes follow a TreeCut chosen, every few steps, from what the
+/// camera sees (the simulation paper's complete system).
+///
+/// Without feedback it is a TreeCut soft body the host refines and coarsens itself. With
+/// [`AdaptiveCloth::set_feedback`] each [`AdaptiveCloth::step`] simulates, and every `interval`
+/// steps measures the BSWDF salience of every node, lets the evaluator choose refines and
+/// coarses under the budget, and begins them; the body blends and ends them over the next steps.
+/// With a node or compression budget everything is deterministic: the same calls give
+/// bit-identical results.
+#[derive(Clone, Debug)]
+pub struct AdaptiveCloth {
+    body: TreeCutSoftBody,
+    camera: Option<Camera>,
+    light: Option<Light>,
+    feedback: Option<Feedback>,
+    /// Last estimated unit normal per hierarchy node (the sign hint for the next estimate).
+    node_normals: Vec<Vec3>,
+    node_radius: Vec<f32>,
+    /// Per hierarchy node: the step and kind (1 refine, 2 coarse) of its last operation.
+    last_op: Vec<(u64, u8)>,
+    ops: Vec<Op>,
+    stats: ClothStats,
+}
+
+const OP_REFINE: u8 = 1;
+const OP_COARSE: u8 = 2;
+
+impl AdaptiveCloth {
+    /// A cloth over `hierarchy` starting from `cut` (which must be a valid cut of it), with every
+    /// node at rest. `rest_normal` orients the surface for the salience stage (any consistent
+    /// choice works for two-sided cloth; the grid builder passes `u × v`).
+    pub fn new(
+        hierarchy: impl Into<Arc<Hierarchy>>,
+        cut: treecut::Cut,
+        settings: TreeCutSettings,
+        rest_normal: Vec3,
+    ) -> Result<AdaptiveCloth, ClothError> {
+        let hierarchy: Arc<Hierarchy> = hierarchy.into();
+        let normal = rest_normal.normalize_or(Vec3::Y);
+        let node_radius = node_radii(&hierarchy);
+        let len = hierarchy.len();
+        let body = TreeCutSoftBody::new(hierarchy, cut, settings)?;
+        Ok(AdaptiveCloth {
+            body,
+            camera: None,
+            light: None,
+            feedback: None,
+            node_normals: vec![normal; len],
+            node_radius,
+            last_op: vec![(0, 0); len],
+            ops: Vec::new(),
+            stats: ClothStats::default(),
+        })
+    }
+
+    /// A regular grid cloth (a quadtree hierarchy) starting at `level` (0 = finest; clamped to
+    /// the coarsest level).
+    pub fn grid(
+        spec: &GridSpec,
+        level: u32,
+        settings: TreeCutSettings,
+    ) -> Result<AdaptiveCloth, ClothError> {
+        let h = Hierarchy::grid(spec)?;
+        let level = level.min(h.level_count().saturating_sub(1));
+        let cut = treecut::Cut::uniform(&h, level);
+        AdaptiveCloth::new(h, cut, settings, spec.u.cross(spec.v))
+    }
+
+    /// A cloth from the host's own triangle mesh (rest positions, triangles, optional masses
+    /// per vertex), starting at the finest level. The mesh must be connected.
+    pub fn from_mesh(
+        positions: &[Vec3],
+        triangles: &[[u32; 3]],
+        masses: Option<&[f32]>,
+        settings: TreeCutSettings,
+    ) -> Result<AdaptiveCloth, ClothError> {
+        let h = Hierarchy::from_mesh(positions, triangles, masses)?;
+        // Area-weighted mean normal: with two-sided salience only a consistent orientation
+        // matters, and the mean of the triangles' normals is one.
+        let mut normal = Vec3::ZERO;
+        for t in triangles {
+            let [a, b, c] = t.map(|i| positions[i as usize]);
+            normal += (b - a).cross(c - a);
+        }
+        let cut = treecut::Cut::finest(&h);
+        AdaptiveCloth::new(h, cut, settings, normal)
+    }
+
+    /// The TreeCut soft body (particles, links, cut, hierarchy).
+    pub fn body(&self) -> &TreeCutSoftBody {
+        &self.body
+    }
+
+    /// The soft body, mutably (pins, forces, settings). Refines and coarses begun through it
+    /// directly are not counted in the statistics.
+    pub fn body_mut(&mut self) -> &mut TreeCutSoftBody {
+        &mut self.body
+    }
+
+    /// The hierarchy the cut runs through.
+    pub fn hierarchy(&self) -> &Hierarchy {
+        self.body.hierarchy()
+    }
+
+    /// Counters and last timings.
+    pub fn stats(&self) -> &ClothStats {
+        &self.stats
+    }
+
+    /// The feedback settings, if feedback is on.
+    pub fn feedback(&self) -> Option<&FeedbackSettings> {
+        self.feedback.as_ref().map(|f| &f.settings)
+    }
+
+    /// The camera the salience stage uses, if set.
+    pub fn camera(&self) -> Option<&Camera> {
+        self.camera.as_ref()
+    }
+
+    /// Sets the camera the salience stage sees the cloth with.
+    pub fn set_camera(&mut self, camera: Camera) {
+        self.camera = Some(camera);
+    }
+
+    /// Sets or clears the light (without one the BSWDF is the animation features alone).
+    pub fn set_light(&mut self, light: Option<Light>) -> Result<(), ClothError> {
+        if let Some(l) = &light {
+            l.validate()?;
+        }
+        self.light = light;
+        Ok(())
+    }
+
+    /// Turns the feedback loop on with these settings (or off with `None`). Needs a camera.
+    /// Invalid settings are refused and the previous ones stay.
+    pub fn set_feedback(&mut self, settings: Option<FeedbackSettings>) -> Result<(), ClothError> {
+        let Some(settings) = settings else {
+            self.feedback = None;
+            return Ok(());
+        };
+        settings.validate()?;
+        if self.camera.is_none() {
+            return Err(ClothError::NoCamera);
+        }
+        match &mut self.feedback {
+            // Keep the controller's learned state when only other settings change.
+            Some(f) if f.settings.budget == settings.budget => {
+                f.settings = settings;
+                f.evaluator.set_settings(treecut::EvaluatorSettings {
+                    hysteresis: settings.hysteresis,
+                    max_ops: settings.max_ops,
+                });
+            }
+            _ => {
+                let h = self.body.hierarchy();
+                self.feedback = Some(Feedback::new(
+                    settings,
+                    h.len(),
+                    h.vertex_count(),
+                    self.body.cut().len(),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Begins refining `node` (replacing it by its children over the blend steps). Refused, with
+    /// nothing changed, if it is not on the cut, a leaf, or locked by a transition in flight.
+    pub fn refine(&mut self, node: NodeId) -> Result<(), ClothError> {
+        self.body.begin_refine(node)?;
+        self.record(node, OP_REFINE);
+        Ok(())
+    }
+
+    /// Begins coarsening `parent` (replacing its children by it over the blend steps). Refused,
+    /// with nothing changed, unless all its children are on the cut and unlocked.
+    pub fn coarse(&mut self, parent: NodeId) -> Result<(), ClothError> {
+        self.body.begin_coarse(parent)?;
+        self.record(parent, OP_COARSE);
+        Ok(())
+    }
+
+    fn record(&mut self, node: NodeId, kind: u8) {
+        let now = self.stats.steps;
+        let (when, last) = self.last_op[node.index()];
+        if last != 0 && last != kind && now - when <= UNDO_WINDOW_STEPS {
+            self.stats.undone_ops += 1;
+        }
+        self.last_op[node.index()] = (now, kind);
+        match kind {
+            OP_REFINE => self.stats.refines += 1,
+            _ => self.stats.coarses += 1,
+        }
+    }
+
+    /// Advances the simulation by one step; with feedback on, every `interval` steps (counting
+    /// from the first) also measures salience and begins the operations the evaluator chose.
+    /// Operations whose blend is done end inside the step.
+    pub fn step(&mut self) -> Result<(), ClothError> {
+        let start = Instant::now();
+        let mut eval_seconds = None;
+        let due = self
+            .feedback
+            .as_ref()
+            .is_some_and(|f| self.stats.steps % f.settings.interval as u64 == 0);
+        if due {
+            let t = Instant::now();
+            self.evaluate()?;
+            eval_seconds = Some(t.elapsed().as_secs_f64());
+        }
+        self.body.step();
+        self.stats.steps += 1;
+        let seconds = start.elapsed().as_secs_f64();
+        self.stats.last_step_seconds = seconds;
+        if let Some(e) = eval_seconds {
+            self.stats.last_eval_seconds = e;
+        }
+        if let Some(c) = self.feedback.as_mut().and_then(|f| f.controller.as_mut()) {
+            c.update(seconds, self.body.particle_count());
+        }
+        Ok(())
+    }
+
+    /// Runs the feedback stage once now: salience, evaluator, begin operations. Refused (nothing
+    /// changed) without feedback settings or a camera.
+    pub fn evaluate(&mut self) -> Result<(), ClothError> {
+        let camera = self.camera.as_ref().ok_or(ClothError::NoCamera)?;
+        let Some(f) = self.feedback.as_mut() else {
+            return Err(ClothError::Feedback {
+                field: "feedback",
+                reason: "not enabled",
+            });
+        };
+        f.measure(
+            &self.body,
+            &mut self.node_normals,
+            &self.node_radius,
+            camera,
+            self.light.as_ref(),
+            self.body.settings().solver.dt,
+        )?;
+        let h = self.body.hierarchy_arc().clone();
+        let budget = f.node_budget(h.vertex_count());
+        let ops = f.evaluator.evaluate(
+            &h,
+            self.body.cut(),
+            &f.priorities,
+            None,
+            treecut::Budget::Nodes(budget),
+        )?;
+        self.ops.clear();
+        self.ops.extend_from_slice(ops);
+        self.stats.evaluations += 1;
+        self.stats.node_budget = budget;
+        let mut ops = std::mem::take(&mut self.ops);
+        // Coarses first, then refines while the cut stays within the budget. The evaluator pairs
+        // each refine that needs room with the merges that make it, but a transition begun here
+        // locks its neighbourhood and may refuse a later merge of the batch; refining anyway
+        // would overrun the budget and force merges without hysteresis at the next evaluation,
+        // which is exactly the back-and-forth the threshold exists to prevent. (Reordering is
+        // valid: within a batch no coarse depends on a refine and no refine on a coarse.)
+        ops.sort_by_key(|op| matches!(op, Op::Refine(_)));
+        let mut refused_before = false;
+        for &op in &ops {
+            let (result, kind) = match op {
+                Op::Refine(n) => {
+                    let grows = h.child_count(n).saturating_sub(1);
+                    if self.body.cut().len() + grows > budget {
+                        self.stats.refused += 1;
+                        continue;
+                    }
+                    (self.body.begin_refine(n), OP_REFINE)
+                }
+                Op::Coarse(n) => (self.body.begin_coarse(n), OP_COARSE),
+            };
+            match result {
+                Ok(()) => self.record(op.node(), kind),
+                // The evaluator's batch is valid on the cut, but an earlier operation of it
+                // locked this node's neighbourhood (transitions lock their neighbours), or was
+                // itself refused and this one built on it. Either way nothing changed; the
+                // evaluator proposes it again once the transitions in flight end.
+                Err(e) => {
+                    debug_assert!(
+                        refused_before || matches!(e, TreeCutError::Cut(CutError::Locked(_))),
+                        "evaluator proposed an invalid operation: {e}"
+                    );
+                    refused_before = true;
+                    self.stats.refused += 1;
+                }
+            }
+        }
+        self.ops = ops;
+        Ok(())
+    }
+
+    /// Positions of every finest-level vertex reconstructed from the current nodes (for
+    /// rendering and for measuring error); `out` holds one entry per vertex.
+    pub fn reconstruct(&mut self, out: &mut [Vec3]) -> Result<(), ClothError> {
+        Ok(self.body.reconstruct(out)?)
+    }
+
+    /// The links with their blend weights, for debug drawing (cleared first).
+    pub fn draw_links(&self, out: &mut Vec<DrawLink>) {
+        self.body.draw_links(out);
+    }
+
+    /// Simulated nodes now.
+    pub fn node_count(&self) -> usize {
+        self.body.particle_count()
+    }
+
+    /// Links now (plain and group links).
+    pub fn link_count(&self) -> usize {
+        self.body.link_count() + self.body.group_link_count()
+    }
+
+    /// Refine/coarse transitions being blended now (the paper's "interpolations").
+    pub fn interpolations(&self) -> usize {
+        self.body.transitions_in_flight()
+    }
+}

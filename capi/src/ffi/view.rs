@@ -1,0 +1,125 @@
+//! The world's camera and light, set by the host once per frame and used by every cloth's
+//! feedback loop and every crowd's LOD.
+
+use super::boundary::{arg, arg_mut, boundary};
+use super::result::{FfiError, SlodResult};
+use super::world::SlodWorld;
+use glam::Vec3;
+
+/// The host's camera: a pinhole with a vertical field of view and a viewport in pixels.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SlodCamera {
+    /// Eye position, world units.
+    pub position: [f32; 3],
+    /// Viewing direction (need not be unit length, must not be zero).
+    pub forward: [f32; 3],
+    /// Image up direction (not parallel to `forward`).
+    pub up: [f32; 3],
+    /// Vertical field of view in radians, in (0, π).
+    pub fov_y_radians: f32,
+    /// Viewport width in pixels (> 0).
+    pub viewport_width: u32,
+    /// Viewport height in pixels (> 0).
+    pub viewport_height: u32,
+}
+
+/// Kind of light for [`SlodLight`].
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SlodLightKind {
+    /// No light: salience uses the animation features alone.
+    None = 0,
+    /// A directional light; `vector` points towards the light.
+    Directional = 1,
+    /// A point light; `vector` is its position.
+    Point = 2,
+}
+
+/// The light the cloth salience multiplies by (Lambertian: `ambient + diffuse · max(0, n·l)`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SlodLight {
+    /// A `SlodLightKind` value.
+    pub kind: u32,
+    /// Direction towards the light (directional) or its position (point).
+    pub vector: [f32; 3],
+    /// Ambient term in [0, 1].
+    pub ambient: f32,
+    /// Diffuse term in [0, 1].
+    pub diffuse: f32,
+}
+
+impl SlodCamera {
+    /// The salience camera, or an error naming the bad field.
+    pub(crate) fn to_salience(self) -> Result<salience::Camera, FfiError> {
+        salience::Camera::new(
+            Vec3::from(self.position),
+            Vec3::from(self.forward),
+            Vec3::from(self.up),
+            self.fov_y_radians,
+            self.viewport_width,
+            self.viewport_height,
+        )
+        .map_err(|e| FfiError::invalid("camera", e))
+    }
+}
+
+impl SlodLight {
+    /// The salience light (`None` for `SLOD_LIGHT_KIND_NONE`), or an error naming the bad field.
+    pub(crate) fn to_salience(self) -> Result<Option<salience::Light>, FfiError> {
+        let v = Vec3::from(self.vector);
+        let light = match self.kind {
+            0 => return Ok(None),
+            1 => salience::Light::directional(v, self.ambient, self.diffuse),
+            2 => salience::Light::point(v, self.ambient, self.diffuse),
+            k => return Err(FfiError::invalid("light.kind", format!("unknown kind {k}"))),
+        };
+        light
+            .validate()
+            .map_err(|e| FfiError::invalid("light", e))?;
+        Ok(Some(light))
+    }
+}
+
+/// Sets the camera every cloth and crowd of the world sees from now on. Invalid values (NaN,
+/// zero viewport, field of view outside (0, π), zero or parallel directions) are refused and the
+/// previous camera stays.
+///
+/// # Safety
+/// `world` must be NULL or a live world used by no other thread; `camera` NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_world_set_camera(
+    world: *mut SlodWorld,
+    camera: *const SlodCamera,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        // SAFETY: caller contract: NULL or a valid camera.
+        let camera = *unsafe { arg(camera, "camera") }?;
+        let checked = camera.to_salience()?;
+        world.camera = Some((camera, checked));
+        Ok(())
+    })
+}
+
+/// Sets (or with kind `SLOD_LIGHT_KIND_NONE` clears) the light cloth salience uses. Invalid values
+/// are refused and the previous light stays.
+///
+/// # Safety
+/// `world` must be NULL or a live world used by no other thread; `light` NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_world_set_light(
+    world: *mut SlodWorld,
+    light: *const SlodLight,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        // SAFETY: caller contract: NULL or a valid light.
+        let light = *unsafe { arg(light, "light") }?;
+        world.light = light.to_salience()?;
+        Ok(())
+    })
+}
