@@ -1,5 +1,54 @@
-//! Placeholder benchmark, filled by the issue that owns this crate.
+//! The closed loop's costs on the paper's 65×65 swinging net: one step of the full-resolution
+//! cloth, one step of the adaptive cloth at 75% and 30% (evaluation amortised over its
+//! interval), and one feedback evaluation on its own (salience, normals, evaluator, operations).
+
 use criterion::{Criterion, criterion_group, criterion_main};
-fn bench(_c: &mut Criterion) {}
+use slod::cloth::net::{NetConfig, default_body_settings};
+use slod::cloth::{AdaptiveCloth, ClothBudget, FeedbackSettings};
+
+fn cloth(config: &NetConfig, compression: Option<f32>) -> AdaptiveCloth {
+    let spec = config.grid();
+    let n = config.size;
+    let mut c = AdaptiveCloth::grid(&spec, 0, default_body_settings()).unwrap();
+    for (i, j) in [(0, 0), (n - 1, 0), (0, n - 1), (n - 1, n - 1)] {
+        c.body_mut()
+            .pin_vertex(spec.vertex(i, j), spec.position(i, j))
+            .unwrap();
+    }
+    c.set_camera(config.camera);
+    if let Some(f) = compression {
+        c.set_feedback(Some(FeedbackSettings {
+            budget: ClothBudget::Compression(f),
+            ..config.feedback
+        }))
+        .unwrap();
+    }
+    // Into the swing, with the cut adapted.
+    for _ in 0..240 {
+        c.step().unwrap();
+    }
+    c
+}
+
+fn bench(c: &mut Criterion) {
+    let config = NetConfig::paper().unwrap();
+    let mut g = c.benchmark_group("net65");
+    for (name, compression) in [
+        ("full", None),
+        ("feedback75", Some(0.75)),
+        ("feedback30", Some(0.3)),
+    ] {
+        let mut cl = cloth(&config, compression);
+        g.bench_function(format!("step/{name}"), |b| b.iter(|| cl.step().unwrap()));
+    }
+    for compression in [1.0, 0.3] {
+        let mut cl = cloth(&config, Some(compression));
+        g.bench_function(format!("evaluate/{}", (compression * 100.0) as u32), |b| {
+            b.iter(|| cl.evaluate().unwrap())
+        });
+    }
+    g.finish();
+}
+
 criterion_group!(benches, bench);
 criterion_main!(benches);

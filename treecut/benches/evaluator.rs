@@ -16,6 +16,7 @@ fn bench(c: &mut Criterion) {
     let mut ev = Evaluator::new(EvaluatorSettings {
         hysteresis: 0.02,
         max_ops: 64,
+        ..Default::default()
     });
     // Sixteen unrelated priority fields, cycled so every call sees all priorities changed.
     let fields: Vec<Vec<f32>> = (0..16u64)

@@ -46,6 +46,22 @@ pub enum Budget {
     },
 }
 
+/// Where a parent's merge priority (the value of keeping it refined) comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum MergeKey {
+    /// The largest priority among its children: a parent may only be merged when none of its
+    /// children matters. Right when priorities do not depend on the level (e.g. a salience
+    /// value per point).
+    #[default]
+    MaxOfChildren,
+    /// The parent's own entry in the priority slice, which the caller fills for every parent
+    /// whose children are all active. Right when a priority measures what refining that node
+    /// gains (e.g. screen-space error, which shrinks with the node): a refine candidate's gain and
+    /// a merge candidate's loss are then both measured at the parent's level, so a refine is not
+    /// undone just because its children are individually worth less than their parent was.
+    Parent,
+}
+
 /// Settings of an [`Evaluator`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EvaluatorSettings {
@@ -53,6 +69,8 @@ pub struct EvaluatorSettings {
     pub hysteresis: f32,
     /// Most operations proposed per call, to bound the work of applying them in one frame.
     pub max_ops: usize,
+    /// Where merge priorities come from.
+    pub merge_key: MergeKey,
 }
 
 impl Default for EvaluatorSettings {
@@ -60,6 +78,7 @@ impl Default for EvaluatorSettings {
         EvaluatorSettings {
             hysteresis: 0.05,
             max_ops: 64,
+            merge_key: MergeKey::MaxOfChildren,
         }
     }
 }
@@ -312,6 +331,15 @@ impl Evaluator {
         {
             return Err(EvalError::NonFinitePriority(n));
         }
+        if self.settings.merge_key == MergeKey::Parent
+            && let Some(p) = cut
+                .active()
+                .iter()
+                .filter_map(|&n| h.parent(n))
+                .find(|p| !priorities[p.index()].is_finite())
+        {
+            return Err(EvalError::NonFinitePriority(p));
+        }
         Ok(Inputs {
             h,
             cut,
@@ -376,15 +404,18 @@ impl Evaluator {
             })
     }
 
-    /// The merge priority of `p` (its children's largest), if `p` may be merged now.
+    /// The merge priority of `p` (its children's largest, or its own entry), if `p` may be
+    /// merged now.
     fn merge_key(&self, inputs: &Inputs<'_>, p: NodeId) -> Option<f32> {
-        self.mergeable(inputs, p).then(|| {
-            inputs
-                .h
-                .children(p)
-                .map(|k| self.priority(inputs, k))
-                .fold(f32::NEG_INFINITY, f32::max)
-        })
+        self.mergeable(inputs, p)
+            .then(|| match self.settings.merge_key {
+                MergeKey::Parent => inputs.priorities[p.index()],
+                MergeKey::MaxOfChildren => inputs
+                    .h
+                    .children(p)
+                    .map(|k| self.priority(inputs, k))
+                    .fold(f32::NEG_INFINITY, f32::max),
+            })
     }
 
     fn push_merge_candidate(&mut self, inputs: &Inputs<'_>, p: NodeId) {

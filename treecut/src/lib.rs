@@ -19,7 +19,7 @@ mod mesh;
 
 pub use cut::Cut;
 pub use error::{BuildError, CutError, EvalError, InvariantError};
-pub use evaluator::{Budget, Evaluator, EvaluatorSettings, Op};
+pub use evaluator::{Budget, Evaluator, EvaluatorSettings, MergeKey, Op};
 pub use grid::GridSpec;
 pub use hierarchy::Hierarchy;
 pub use id::{NodeId, NodeRange};

@@ -163,7 +163,7 @@ proptest! {
     ) {
         let h = hierarchy(grid, cols, rows, seed);
         let mut cut = Cut::root(&h);
-        let mut ev = Evaluator::new(EvaluatorSettings { hysteresis: 0.05, max_ops });
+        let mut ev = Evaluator::new(EvaluatorSettings { hysteresis: 0.05, max_ops, ..Default::default() });
         let costs: Vec<f32> = (0..h.len()).map(|i| 1.0 + (i % 3) as f32).collect();
         let limit = budget as f32 * 1.5;
         for r in 0..rounds {
@@ -208,11 +208,12 @@ proptest! {
     #[test]
     fn constant_priorities_converge_then_stop(
         grid in any::<bool>(), cols in 2u32..40, rows in 2u32..40, seed in any::<u64>(),
-        budget in 1usize..2000, value in 0f32..1.0,
+        budget in 1usize..2000, value in 0f32..1.0, parent_key in any::<bool>(),
     ) {
         let h = hierarchy(grid, cols, rows, seed);
         let mut cut = Cut::root(&h);
-        let mut ev = Evaluator::new(EvaluatorSettings { hysteresis: 0.0, max_ops: 16 });
+        let merge_key = if parent_key { MergeKey::Parent } else { MergeKey::MaxOfChildren };
+        let mut ev = Evaluator::new(EvaluatorSettings { hysteresis: 0.0, max_ops: 16, merge_key });
         let prio = vec![value; h.len()];
         let mut quiet = false;
         for _ in 0..h.len() + 2 {
@@ -245,6 +246,7 @@ fn swaps_need_to_beat_the_threshold() {
     let mut ev = Evaluator::new(EvaluatorSettings {
         hysteresis: 0.05,
         max_ops: 8,
+        ..Default::default()
     });
     assert!(
         ev.evaluate(&h, &cut, &prio, None, budget)
@@ -351,4 +353,33 @@ fn from_nodes_checks_coverage() {
         Cut::from_nodes(&h, &twice),
         Err(CutError::NotACut(_, 2))
     ));
+}
+
+/// With priorities that shrink with the node (screen-space error), children are each worth
+/// less than their parent was. Keyed by the children, a merge of a just-refined parent looks
+/// cheap and any equal candidate swaps with it: flicker. Keyed by the parent's own value, the
+/// swap must beat what the refine gained.
+#[test]
+fn parent_merge_keys_keep_size_scaled_refines() {
+    let h = Hierarchy::grid(&GridSpec::horizontal(9, 9, 1.0, 1.0)).unwrap();
+    let prio: Vec<f32> = (0..h.len())
+        .map(|i| h.vertices(NodeId::new(i)).len() as f32)
+        .collect();
+    for (merge_key, flickers) in [(MergeKey::MaxOfChildren, true), (MergeKey::Parent, false)] {
+        let mut cut = Cut::uniform(&h, 1);
+        let hot = cut.active()[12];
+        cut.refine(&h, hot).unwrap();
+        let budget = Budget::Nodes(cut.len());
+        let mut ev = Evaluator::new(EvaluatorSettings {
+            hysteresis: 0.5,
+            max_ops: 8,
+            merge_key,
+        });
+        let ops = ev.evaluate(&h, &cut, &prio, None, budget).unwrap();
+        assert_eq!(
+            ops.contains(&Op::Coarse(hot)),
+            flickers,
+            "{merge_key:?}: {ops:?}"
+        );
+    }
 }

@@ -187,10 +187,7 @@ impl AdaptiveCloth {
             // Keep the controller's learned state when only other settings change.
             Some(f) if f.settings.budget == settings.budget => {
                 f.settings = settings;
-                f.evaluator.set_settings(treecut::EvaluatorSettings {
-                    hysteresis: settings.hysteresis,
-                    max_ops: settings.max_ops,
-                });
+                f.evaluator.set_settings(settings.evaluator_settings());
             }
             _ => {
                 let h = self.body.hierarchy();

@@ -4,7 +4,7 @@
 use glam::{Vec3, Vec4};
 use salience::{BswdfParams, Camera, Light, Neighbours, Nodes, ObjectMotion, Sidedness, View};
 use softbody::TreeCutSoftBody;
-use treecut::{Evaluator, EvaluatorSettings, NodeId};
+use treecut::{Evaluator, EvaluatorSettings, MergeKey, NodeId};
 
 use super::controller::{ControllerSettings, TimeController};
 use super::error::ClothError;
@@ -76,7 +76,7 @@ impl Default for FeedbackSettings {
             interval: 5,
             budget: ClothBudget::Compression(0.3),
             hysteresis: 2.0,
-            max_ops: 32,
+            max_ops: 64,
             priority: PriorityModel::default(),
             params: BswdfParams {
                 sides: Sidedness::TwoSided,
@@ -90,6 +90,18 @@ impl Default for FeedbackSettings {
 }
 
 impl FeedbackSettings {
+    /// The evaluator settings these feedback settings imply.
+    pub(crate) fn evaluator_settings(&self) -> EvaluatorSettings {
+        EvaluatorSettings {
+            hysteresis: self.hysteresis,
+            max_ops: self.max_ops,
+            merge_key: match self.priority {
+                PriorityModel::Salience => MergeKey::MaxOfChildren,
+                PriorityModel::ScreenError => MergeKey::Parent,
+            },
+        }
+    }
+
     /// Checks every field; the error names the bad one.
     pub fn validate(&self) -> Result<(), ClothError> {
         let bad = |field, reason| Err(ClothError::Feedback { field, reason });
@@ -117,10 +129,10 @@ impl FeedbackSettings {
         }
         self.params.validate()?;
         let c = self.controller;
-        if !(c.smoothing > 0.0 && c.smoothing <= 1.0)
-            || !(c.gain > 0.0 && c.gain <= 1.0)
-            || !(c.max_change > 0.0 && c.max_change.is_finite())
-        {
+        let unit = |x: f32| x > 0.0 && x <= 1.0;
+        let ok =
+            unit(c.smoothing) && unit(c.gain) && c.max_change > 0.0 && c.max_change.is_finite();
+        if !ok {
             return bad("controller", "smoothing and gain in (0, 1], max_change > 0");
         }
         Ok(())
@@ -168,10 +180,7 @@ impl Feedback {
             _ => None,
         };
         Feedback {
-            evaluator: Evaluator::new(EvaluatorSettings {
-                hysteresis: settings.hysteresis,
-                max_ops: settings.max_ops,
-            }),
+            evaluator: Evaluator::new(settings.evaluator_settings()),
             settings,
             controller,
             positions: Vec::new(),
@@ -264,31 +273,43 @@ impl Feedback {
         for (i, &node) in nodes.iter().enumerate() {
             node_normals[node.index()] = self.normals[i];
             let remembered = self.remembered(h, node, previous) * decay;
-            let s = self.salience[i].max(remembered);
-            self.salience[i] = s;
-            if !cut.is_on_cut(node)
-                && let Some(p) = h.parent(node)
-            {
+            self.salience[i] = self.salience[i].max(remembered);
+            // Entries filled by maxima below start from zero.
+            if let Some(p) = h.parent(node) {
                 self.priorities[p.index()] = 0.0;
             }
         }
+        let screen = self.settings.priority == PriorityModel::ScreenError;
         for (i, &node) in nodes.iter().enumerate() {
             let s = self.salience[i];
             self.memory[node.index()] = s;
             self.memory_stamp[node.index()] = self.evaluation;
-            let p = match self.settings.priority {
-                PriorityModel::Salience => s,
-                PriorityModel::ScreenError => {
-                    let d = camera.distance(self.positions[i]);
-                    s * camera.pixels_per_unit(d) * node_radius[node.index()]
+            let px = if screen {
+                camera.pixels_per_unit(camera.distance(self.positions[i]))
+            } else {
+                1.0
+            };
+            let value = |n: NodeId| {
+                if screen {
+                    s * px * node_radius[n.index()]
+                } else {
+                    s
                 }
             };
+            let Some(parent) = h.parent(node) else {
+                self.priorities[node.index()] = value(node);
+                continue;
+            };
             if cut.is_on_cut(node) {
-                self.priorities[node.index()] = p;
-            } else if let Some(parent) = h.parent(node) {
-                let slot = &mut self.priorities[parent.index()];
-                *slot = slot.max(p);
+                self.priorities[node.index()] = value(node);
             }
+            // Either the parent is on the cut with a coarse in flight (its priority is its
+            // children's largest), or it is a merge candidate: with screen-error priorities
+            // its key is the value of keeping it refined, measured at its own size
+            // (`MergeKey::Parent`); with plain salience the evaluator takes the children's
+            // largest itself.
+            let slot = &mut self.priorities[parent.index()];
+            *slot = slot.max(value(parent));
         }
         Ok(())
     }
