@@ -197,6 +197,10 @@ impl Evaluator {
         // allocations of the previous call.
         let mut split = std::mem::take(&mut self.split).into_vec();
         let mut merge = std::mem::take(&mut self.merge).into_vec();
+        // The smallest budget growth any candidate refine would cost: once swaps stop paying
+        // and even that does not fit, no candidate left can be taken, so the loop ends instead
+        // of popping the whole queue.
+        let mut min_delta = f64::INFINITY;
         for &n in cut.active() {
             spent += match inputs.costs {
                 None => 1.0,
@@ -204,6 +208,7 @@ impl Evaluator {
             };
             if !h.is_leaf(n) && !cut.is_locked(n) {
                 split.push((Priority(priorities[n.index()]), Reverse(n)));
+                min_delta = min_delta.min(inputs.refine_delta(n));
             }
             if let Some(p) = h.parent(n)
                 && h.children(p).first() == Some(n)
@@ -238,6 +243,9 @@ impl Evaluator {
                 continue;
             }
             if swaps_exhausted {
+                if spent + min_delta > limit + eps {
+                    break;
+                }
                 self.split.pop();
                 continue;
             }
