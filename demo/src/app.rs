@@ -1,0 +1,318 @@
+//! The run itself: parse, measure the net and the crowd, draw, write the report, print the
+//! summary. Tables go to `out` as each section finishes; errors and the usage to `err`.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use crate::cli::{self, EXIT_FAILURE, EXIT_USAGE, Options, Parsed};
+use crate::crowd::{self, CrowdOutcome, CrowdPlan};
+use crate::error::DemoError;
+use crate::machine::Machine;
+use crate::net::{self, NetOutcome, NetPlan};
+use crate::paper::{TABLE1, TABLE2_TCSB, THESIS};
+use crate::progress::Progress;
+use crate::report::{self, Report, SCHEMA, Seconds};
+use crate::table::{Table, num, pct};
+use crate::{plots, render};
+
+/// Runs the demo for `args` (without the program name), printing tables to `out` and errors
+/// to `err`; returns the process exit status: 0, [`EXIT_USAGE`] for a bad command line (the
+/// message and the usage are printed), [`EXIT_FAILURE`] when a run fails.
+pub fn run_cli(
+    args: &[String],
+    out: &mut dyn Write,
+    err: &mut dyn Write,
+    progress: Progress,
+) -> i32 {
+    let options = match cli::parse(args) {
+        Ok(Parsed::Help) => {
+            let _ = write!(out, "{}", cli::usage());
+            return 0;
+        }
+        Ok(Parsed::Run(o)) => o,
+        Err(e) => {
+            let _ = write!(err, "error: {e}\n\n{}", cli::usage());
+            return EXIT_USAGE;
+        }
+    };
+    match run(&options, args, out, progress) {
+        Ok(()) => 0,
+        Err(e @ DemoError::Usage(_)) => {
+            let _ = write!(err, "error: {e}\n\n{}", cli::usage());
+            EXIT_USAGE
+        }
+        Err(e) => {
+            let _ = writeln!(err, "error: {e}");
+            EXIT_FAILURE
+        }
+    }
+}
+
+/// Prints text, ignoring a closed stdout (a pipe to `head` must not fail the run).
+fn say(out: &mut dyn Write, text: &str) {
+    let _ = writeln!(out, "{text}");
+    let _ = out.flush();
+}
+
+fn run(
+    options: &Options,
+    args: &[String],
+    out: &mut dyn Write,
+    progress: Progress,
+) -> Result<(), DemoError> {
+    let start = Instant::now();
+    let machine = Machine::detect();
+    say(
+        out,
+        &format!(
+            "slod demo: simulation and animation level of detail, measured beside the papers\n\
+             machine: {}\n",
+            machine.summary()
+        ),
+    );
+    if machine.build == "debug" {
+        say(
+            out,
+            "warning: this is a debug build; timings mean little. Run with `cargo run --release`.\n",
+        );
+    }
+    let dir = options.out.as_path();
+    std::fs::create_dir_all(dir).map_err(|e| DemoError::io(dir, e))?;
+    // Plans first, so a bad option fails before minutes of measuring.
+    let net_plan = options
+        .section
+        .net()
+        .then(|| NetPlan::new(&options.net, options.quick))
+        .transpose()?;
+    let crowd_plan = options
+        .section
+        .crowd()
+        .then(|| CrowdPlan::new(&options.crowd, options.quick));
+
+    let mut seconds = Seconds::default();
+    let mut files: Vec<PathBuf> = Vec::new();
+    let mut net_outcome: Option<NetOutcome> = None;
+    if let Some(plan) = &net_plan {
+        say(
+            out,
+            &format!(
+                "== The swinging net (simulation paper, section 6): {0}x{0} vertices, {1} steps ==\n",
+                plan.config.size, plan.config.steps
+            ),
+        );
+        let outcome = net::run(plan, progress)?;
+        seconds.net = outcome.section.seconds;
+        say(out, &outcome.text);
+        let t = Instant::now();
+        files.extend(render::net_pictures(
+            &outcome.report,
+            &plan.config,
+            &plan.picture_steps,
+            dir,
+        )?);
+        files.push(plots::net_step_time(&outcome.section, dir)?);
+        seconds.pictures += t.elapsed().as_secs_f64();
+        net_outcome = Some(outcome);
+    }
+    let mut crowd_outcome: Option<CrowdOutcome> = None;
+    if let Some(plan) = &crowd_plan {
+        say(
+            out,
+            "== The crowd (bone-priority thesis, chapter 13): camera swept away ==\n",
+        );
+        let outcome = crowd::run(plan, progress)?;
+        seconds.crowd = outcome.section.seconds;
+        say(out, &outcome.text);
+        let t = Instant::now();
+        files.push(plots::crowd_frame_cost(&outcome.section, dir)?);
+        files.push(plots::crowd_pose_error(&outcome.section, dir)?);
+        seconds.pictures += t.elapsed().as_secs_f64();
+        crowd_outcome = Some(outcome);
+    }
+
+    let report_path = dir.join("report.json");
+    let names: Vec<String> = files
+        .iter()
+        .map(|f| relative(f, dir))
+        .chain(std::iter::once("report.json".to_string()))
+        .collect();
+    seconds.total = start.elapsed().as_secs_f64();
+    let report = Report {
+        schema: SCHEMA,
+        command: options.section.name(),
+        quick: options.quick,
+        arguments: args,
+        machine: &machine,
+        net: net_outcome.as_ref().map(|o| &o.section),
+        crowd: crowd_outcome.as_ref().map(|o| &o.section),
+        files: names.clone(),
+        seconds: seconds.clone(),
+    };
+    report::write(&report_path, &report)?;
+    say(
+        out,
+        &summary(&report, dir, &names, start.elapsed().as_secs_f64()),
+    );
+    Ok(())
+}
+
+fn relative(path: &Path, dir: &Path) -> String {
+    path.strip_prefix(dir)
+        .unwrap_or(path)
+        .to_string_lossy()
+        .into_owned()
+}
+
+/// The closing table: the headline figures, ours beside the papers'.
+fn summary(report: &Report<'_>, dir: &Path, files: &[String], total_s: f64) -> String {
+    let mut t = Table::new(
+        "Summary",
+        &["result", "ours (this machine)", "paper / thesis"],
+    )
+    .left_aligned();
+    if let Some(net) = report.net {
+        let c = &net.config;
+        let base = net
+            .runs
+            .iter()
+            .find(|r| r.kind == "feedback" && r.compression == Some(1.0))
+            .or_else(|| net.runs.iter().find(|r| r.kind == "reference"));
+        let strongest = net
+            .runs
+            .iter()
+            .filter(|r| r.kind == "feedback")
+            .min_by(|a, b| {
+                a.compression
+                    .unwrap_or(1.0)
+                    .total_cmp(&b.compression.unwrap_or(1.0))
+            });
+        if let (Some(base), Some(s)) = (base, strongest) {
+            let paper = &TABLE2_TCSB[2];
+            t.row([
+                format!("net {0}x{0}: step time, {1}", c.size, s.label),
+                format!(
+                    "{} ms, {} nodes ({} of no compression)",
+                    num(s.ms_per_step, 3),
+                    num(s.nodes, 0),
+                    num(s.ms_per_step / base.ms_per_step, 2)
+                ),
+                format!(
+                    "{} ms, {} nodes ({} of no compression)",
+                    num(paper.ms_per_step, 2),
+                    paper.nodes,
+                    num(paper.ms_per_step / TABLE2_TCSB[0].ms_per_step, 2)
+                ),
+            ]);
+            let baseline = |kind: &str| {
+                net.runs
+                    .iter()
+                    .find(|r| r.kind == kind)
+                    .map_or("-".to_string(), |r| pct(r.rms_error_fraction as f64, 2))
+            };
+            t.row([
+                format!(
+                    "net: rms surface error at {}",
+                    s.label.replace("feedback ", "")
+                ),
+                format!(
+                    "feedback {}, uniform {}, random {}",
+                    pct(s.rms_error_fraction as f64, 2),
+                    baseline("uniform"),
+                    baseline("random")
+                ),
+                "not measured".to_string(),
+            ]);
+        }
+        if let Some(r) = net.runs.iter().find(|r| r.kind == "time_budget") {
+            t.row([
+                format!(
+                    "net: time budget {} ms/step",
+                    num(c.target_step_ms as f64, 3)
+                ),
+                format!(
+                    "{} ms, {} nodes, rms error {}",
+                    num(r.ms_per_step, 3),
+                    num(r.nodes, 0),
+                    pct(r.rms_error_fraction as f64, 2)
+                ),
+                "proposed, not measured".to_string(),
+            ]);
+        }
+        let op = |i: usize| net.table1.rows.get(i).map_or(f64::NAN, |r| r.median_us);
+        t.row([
+            "Table 1: begin-refine / begin-coarse (median)".to_string(),
+            format!("{} / {} µs", num(op(0), 2), num(op(2), 2)),
+            format!(
+                "{} / {} µs",
+                num(TABLE1[0].complete_ms * 1e3, 1),
+                num(TABLE1[2].complete_ms * 1e3, 1)
+            ),
+        ]);
+        if let Some(f) = net.figure5.fits.iter().find(|f| f.body == "treecut") {
+            t.row([
+                "Figure 5: step time against nodes".to_string(),
+                format!(
+                    "linear: {} ms per 1000 nodes (R² {})",
+                    num(f.ms_per_1000_nodes, 3),
+                    num(f.r_squared, 3)
+                ),
+                "linear".to_string(),
+            ]);
+        }
+    }
+    if let Some(crowd) = report.crowd {
+        if let Some(first) = crowd.sweeps.first() {
+            t.row([
+                format!("crowd: far-away frame cost, {}", first.name),
+                format!("{} of full detail", num(crowd.far_cost_ratio.ours, 2)),
+                format!(
+                    "{} ({} fps -> {} fps)",
+                    num(crowd.far_cost_ratio.thesis, 2),
+                    THESIS.fps_without_lod,
+                    THESIS.fps_with_lod_far
+                ),
+            ]);
+        }
+        for s in &crowd.sweeps {
+            let worst_mean = s
+                .rows
+                .iter()
+                .map(|r| r.mean_error_px)
+                .fold(0.0f32, f32::max);
+            let worst_max = s.rows.iter().map(|r| r.max_error_px).fold(0.0f32, f32::max);
+            let cost =
+                s.rows.iter().map(|r| r.cost_ratio).sum::<f64>() / s.rows.len().max(1) as f64;
+            t.row([
+                format!("crowd: {}", s.name),
+                format!(
+                    "mean cost {}, error mean <= {} px, max {} px",
+                    num(cost, 2),
+                    num(worst_mean as f64, 2),
+                    num(worst_max as f64, 1)
+                ),
+                if s.lod.mode == "range" {
+                    "error not measured".to_string()
+                } else {
+                    "beyond the thesis".to_string()
+                },
+            ]);
+        }
+    }
+    t.row([
+        "written".to_string(),
+        format!(
+            "{} files in {} (report.json, {} PNG)",
+            files.len(),
+            dir.display(),
+            files.iter().filter(|f| f.ends_with(".png")).count()
+        ),
+        String::new(),
+    ]);
+    t.row([
+        "wall time".to_string(),
+        format!("{total_s:.1} s"),
+        String::new(),
+    ]);
+    t.render()
+}

@@ -1,0 +1,28 @@
+//! The slod demo: the simulation paper's swinging net (TreeCut-SoftBody, section 6) and the
+//! bone-priority thesis' crowd (chapter 13) measured on this machine, printed beside the
+//! papers' own figures, with pictures of the net, plots and a machine-readable `report.json`.
+//!
+//! The binary is a thin wrapper over [`run_cli`], so the tests run exactly what a user runs.
+//! Modules, in the order a run uses them: `cli` (arguments), `net` and `crowd` (the
+//! experiments), `render` and `plots` (pictures), `table` (text tables), `report` (JSON) and
+//! `app` (the sequence and the summary).
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+mod app;
+mod cli;
+mod crowd;
+mod error;
+mod font;
+mod machine;
+mod net;
+mod paper;
+mod plots;
+mod progress;
+mod render;
+mod report;
+mod table;
+
+pub use app::run_cli;
+pub use cli::{EXIT_FAILURE, EXIT_USAGE, usage};
+pub use progress::Progress;

@@ -1,0 +1,387 @@
+//! Plots (plotters, bitmap backend): the net's step time against node count (the paper's
+//! Figure 5, with our feedback runs and the paper's Table 2 points), and for the crowd the frame
+//! cost and the pose error against camera distance.
+
+use std::path::{Path, PathBuf};
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use crate::crowd::CrowdSection;
+use crate::error::DemoError;
+use crate::font;
+use crate::net::NetSection;
+use crate::paper::{TABLE2_BULLET, TABLE2_TCSB, THESIS};
+
+const SIZE: (u32, u32) = (1100, 720);
+
+/// Colours of successive series (colour-blind-safe Okabe–Ito palette, then grey).
+const COLOURS: [RGBColor; 8] = [
+    RGBColor(0, 114, 178),
+    RGBColor(213, 94, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(230, 159, 0),
+    RGBColor(86, 180, 233),
+    RGBColor(240, 228, 66),
+    RGBColor(120, 120, 120),
+];
+
+fn colour(i: usize) -> RGBColor {
+    COLOURS[i % COLOURS.len()]
+}
+
+type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+
+/// Draws one picture with `draw` and writes it to `path`.
+fn plot(
+    path: &Path,
+    draw: impl FnOnce(&Area<'_>) -> Result<(), String>,
+) -> Result<PathBuf, DemoError> {
+    font::register().map_err(|e| DemoError::draw(path, e))?;
+    let area = BitMapBackend::new(path, SIZE).into_drawing_area();
+    area.fill(&WHITE).map_err(|e| DemoError::draw(path, e))?;
+    draw(&area).map_err(|e| DemoError::draw(path, e))?;
+    area.present().map_err(|e| DemoError::draw(path, e))?;
+    Ok(path.to_path_buf())
+}
+
+fn err(e: impl std::fmt::Display) -> String {
+    e.to_string()
+}
+
+/// The paper's Figure 5, measured: `net_step_time.png`.
+pub(crate) fn net_step_time(net: &NetSection, dir: &Path) -> Result<PathBuf, DemoError> {
+    let path = dir.join("net_step_time.png");
+    let f = &net.figure5;
+    let paper: Vec<(f64, f64)> = std::iter::once(&TABLE2_BULLET)
+        .chain(&TABLE2_TCSB)
+        .map(|p| (p.nodes as f64, p.ms_per_step))
+        .collect();
+    let max_x = f
+        .points
+        .iter()
+        .map(|p| p.nodes)
+        .chain(paper.iter().map(|p| p.0))
+        .fold(1.0, f64::max);
+    let max_y = f
+        .points
+        .iter()
+        .map(|p| p.ms_per_step)
+        .chain(paper.iter().map(|p| p.1))
+        .fold(1e-3, f64::max);
+    let series = |body: &str, c: f32| -> Vec<(f64, f64)> {
+        f.points
+            .iter()
+            .filter(|p| p.body == body && (p.compression - c).abs() < 1e-4)
+            .map(|p| (p.nodes, p.ms_per_step))
+            .collect()
+    };
+    plot(&path, |area| {
+        let mut chart = ChartBuilder::on(area)
+            .caption(
+                "Time per step against node count (the simulation paper's Figure 5)",
+                (font::FAMILY, 26),
+            )
+            .margin(16)
+            .x_label_area_size(48)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..max_x * 1.05, 0.0..max_y * 1.1)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc("simulated nodes")
+            .x_label_formatter(&|x| format!("{x:.0}"))
+            .y_desc("ms per step")
+            .label_style((font::FAMILY, 16))
+            .axis_desc_style((font::FAMILY, 18))
+            .draw()
+            .map_err(err)?;
+        let plain = series("plain", 1.0);
+        chart
+            .draw_series(LineSeries::new(plain.clone(), BLACK.stroke_width(2)))
+            .map_err(err)?
+            .label("plain soft body (no LOD)")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+        chart
+            .draw_series(
+                plain
+                    .iter()
+                    .map(|&p| Cross::new(p, 6, BLACK.stroke_width(2))),
+            )
+            .map_err(err)?;
+        for (k, &c) in f.compressions.iter().enumerate() {
+            let col = colour(k);
+            chart
+                .draw_series(
+                    series("treecut", c)
+                        .into_iter()
+                        .map(|p| Circle::new(p, 5, col.filled())),
+                )
+                .map_err(err)?
+                .label(format!("TreeCut, static cut at {:.0}%", c * 100.0))
+                .legend(move |(x, y)| Circle::new((x + 10, y), 5, col.filled()));
+        }
+        for (k, &c) in f.feedback_compressions.iter().enumerate() {
+            let col = colour(f.compressions.len() + k);
+            let pts = series("feedback", c);
+            chart
+                .draw_series(LineSeries::new(pts.clone(), col.stroke_width(1)))
+                .map_err(err)?;
+            chart
+                .draw_series(
+                    pts.into_iter()
+                        .map(|p| TriangleMarker::new(p, 8, col.filled())),
+                )
+                .map_err(err)?
+                .label(format!(
+                    "TreeCut with feedback at {:.0}% (evaluation included)",
+                    c * 100.0
+                ))
+                .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 7, col.filled()));
+        }
+        if let Some(fit) = f.fits.iter().find(|x| x.body == "treecut") {
+            let line =
+                [0.0, max_x].map(|x| (x, fit.intercept_ms + fit.ms_per_1000_nodes * x / 1e3));
+            let grey = RGBColor(150, 150, 150);
+            chart
+                .draw_series(DashedLineSeries::new(line, 8, 6, grey.stroke_width(1)))
+                .map_err(err)?
+                .label(format!(
+                    "static cuts, linear fit: {:.3} ms per 1000 nodes",
+                    fit.ms_per_1000_nodes
+                ))
+                .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], grey));
+        }
+        let purple = RGBColor(110, 40, 150);
+        chart
+            .draw_series(paper.iter().map(|&p| {
+                Rectangle::new(
+                    [
+                        (p.0 - max_x * 0.006, p.1 - max_y * 0.01),
+                        (p.0 + max_x * 0.006, p.1 + max_y * 0.01),
+                    ],
+                    purple.filled(),
+                )
+            }))
+            .map_err(err)?
+            .label("the paper's Table 2: Bullet and TC-SB (i5 670, 2011)")
+            .legend(move |(x, y)| {
+                Rectangle::new([(x + 5, y - 5), (x + 15, y + 5)], purple.filled())
+            });
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .label_font((font::FAMILY, 16))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(err)
+    })
+}
+
+/// Frame cost against distance: `crowd_frame_cost.png` (milliseconds on the left, cost
+/// relative to full detail on the right, with the thesis' two published points).
+pub(crate) fn crowd_frame_cost(crowd: &CrowdSection, dir: &Path) -> Result<PathBuf, DemoError> {
+    let path = dir.join("crowd_frame_cost.png");
+    let max_d = crowd
+        .config
+        .distances
+        .iter()
+        .copied()
+        .fold(1.0f32, f32::max) as f64;
+    let max_ms = crowd
+        .sweeps
+        .iter()
+        .flat_map(|s| s.rows.iter().map(|r| r.full_ms.max(r.lod_ms)))
+        .fold(1e-3, f64::max);
+    plot(&path, |area| {
+        let title = format!(
+            "Crowd frame cost: {} characters x {} bones, camera moving away",
+            crowd.config.characters, crowd.config.bones
+        );
+        let area = area.titled(&title, (font::FAMILY, 26)).map_err(err)?;
+        let (left, right) = area.split_horizontally(SIZE.0 / 2);
+        let mut ms = ChartBuilder::on(&left)
+            .margin(14)
+            .x_label_area_size(46)
+            .y_label_area_size(64)
+            .build_cartesian_2d(0.0..max_d * 1.03, 0.0..max_ms * 1.15)
+            .map_err(err)?;
+        ms.configure_mesh()
+            .x_desc("camera distance (units; characters 180 tall)")
+            .x_label_formatter(&|x| format!("{x:.0}"))
+            .y_desc("ms per frame (median)")
+            .label_style((font::FAMILY, 15))
+            .axis_desc_style((font::FAMILY, 16))
+            .draw()
+            .map_err(err)?;
+        if let Some(first) = crowd.sweeps.first() {
+            ms.draw_series(LineSeries::new(
+                first.rows.iter().map(|r| (r.distance as f64, r.full_ms)),
+                BLACK.stroke_width(2),
+            ))
+            .map_err(err)?
+            .label("full detail")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+        }
+        for (k, s) in crowd.sweeps.iter().enumerate() {
+            let col = colour(k);
+            ms.draw_series(
+                LineSeries::new(
+                    s.rows.iter().map(|r| (r.distance as f64, r.lod_ms)),
+                    col.stroke_width(2),
+                )
+                .point_size(3),
+            )
+            .map_err(err)?
+            .label(s.name.clone())
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], col.stroke_width(2)));
+        }
+        ms.configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .label_font((font::FAMILY, 14))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(err)?;
+
+        let mut ratio = ChartBuilder::on(&right)
+            .margin(14)
+            .x_label_area_size(46)
+            .y_label_area_size(56)
+            .build_cartesian_2d(0.0..max_d * 1.03, 0.0..1.25f64)
+            .map_err(err)?;
+        ratio
+            .configure_mesh()
+            .x_desc("camera distance (units)")
+            .x_label_formatter(&|x| format!("{x:.0}"))
+            .y_desc("frame cost with LOD / without")
+            .label_style((font::FAMILY, 15))
+            .axis_desc_style((font::FAMILY, 16))
+            .draw()
+            .map_err(err)?;
+        for (k, s) in crowd.sweeps.iter().enumerate() {
+            let col = colour(k);
+            ratio
+                .draw_series(
+                    LineSeries::new(
+                        s.rows.iter().map(|r| (r.distance as f64, r.cost_ratio)),
+                        col.stroke_width(2),
+                    )
+                    .point_size(3),
+                )
+                .map_err(err)?;
+        }
+        let thesis = [
+            (THESIS.range[0] as f64, 1.0),
+            (max_d, THESIS.far_cost_ratio()),
+        ];
+        let purple = RGBColor(110, 40, 150);
+        ratio
+            .draw_series(thesis.iter().map(|&p| {
+                Rectangle::new(
+                    [
+                        (p.0 - max_d * 0.012, p.1 - 0.02),
+                        (p.0 + max_d * 0.012, p.1 + 0.02),
+                    ],
+                    purple.filled(),
+                )
+            }))
+            .map_err(err)?
+            .label("thesis: 12 fps near, 43.6 fps far (rendering incl.)")
+            .legend(move |(x, y)| {
+                Rectangle::new([(x + 5, y - 5), (x + 15, y + 5)], purple.filled())
+            });
+        ratio
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .label_font((font::FAMILY, 14))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(err)
+    })
+}
+
+/// Pose error against distance: `crowd_pose_error.png` (mean and largest joint error on
+/// screen, log scale).
+pub(crate) fn crowd_pose_error(crowd: &CrowdSection, dir: &Path) -> Result<PathBuf, DemoError> {
+    let path = dir.join("crowd_pose_error.png");
+    const FLOOR: f64 = 1e-3;
+    let max_d = crowd
+        .config
+        .distances
+        .iter()
+        .copied()
+        .fold(1.0f32, f32::max) as f64;
+    let max_px = crowd
+        .sweeps
+        .iter()
+        .flat_map(|s| s.rows.iter().map(|r| r.max_error_px as f64))
+        .fold(1.0, f64::max);
+    plot(&path, |area| {
+        let mut chart = ChartBuilder::on(area)
+            .caption(
+                format!(
+                    "Crowd pose error on screen ({:.0}-pixel-high view): mean (solid), largest (dashed)",
+                    crowd.config.viewport_height_px
+                ),
+                (font::FAMILY, 24),
+            )
+            .margin(16)
+            .x_label_area_size(48)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..max_d * 1.03, (FLOOR..max_px * 2.0).log_scale())
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc("camera distance (units; characters 180 tall)")
+            .x_label_formatter(&|x| format!("{x:.0}"))
+            .y_desc("joint error (pixels, log scale)")
+            .label_style((font::FAMILY, 16))
+            .axis_desc_style((font::FAMILY, 18))
+            .draw()
+            .map_err(err)?;
+        for (k, s) in crowd.sweeps.iter().enumerate() {
+            let col = colour(k);
+            chart
+                .draw_series(
+                    LineSeries::new(
+                        s.rows
+                            .iter()
+                            .map(|r| (r.distance as f64, (r.mean_error_px as f64).max(FLOOR))),
+                        col.stroke_width(2),
+                    )
+                    .point_size(3),
+                )
+                .map_err(err)?
+                .label(s.name.clone())
+                .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], col.stroke_width(2)));
+            chart
+                .draw_series(DashedLineSeries::new(
+                    s.rows
+                        .iter()
+                        .map(|r| (r.distance as f64, (r.max_error_px as f64).max(FLOOR))),
+                    7,
+                    5,
+                    col.stroke_width(2),
+                ))
+                .map_err(err)?;
+        }
+        let one_px = [(0.0, 1.0), (max_d * 1.03, 1.0)];
+        chart
+            .draw_series(DashedLineSeries::new(one_px, 3, 4, BLACK.stroke_width(1)))
+            .map_err(err)?
+            .label("1 pixel")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .label_font((font::FAMILY, 15))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(err)
+    })
+}
