@@ -45,7 +45,10 @@ pub struct FeedbackSettings {
     /// What the cut may spend.
     pub budget: ClothBudget,
     /// Minimum priority gain for swapping detail from one place to another (≥ 0, same unit as
-    /// the priorities). Keeps nodes from being refined and coarsened back and forth.
+    /// the priorities: salience-weighted pixels with [`PriorityModel::ScreenError`]). Keeps
+    /// nodes from being refined and coarsened back and forth. Default 6: on the swinging net,
+    /// 2 undid 1–12% of the operations within 30 steps, 4–5 about 1.5%, 6 none, with the same
+    /// error (measured with `run_net`).
     pub hysteresis: f32,
     /// Most operations begun per evaluation (≥ 1); bounds the work of one step.
     pub max_ops: usize,
@@ -54,6 +57,13 @@ pub struct FeedbackSettings {
     /// BSWDF constants. The default is [`BswdfParams::default`] made two-sided (cloth has no
     /// back face).
     pub params: BswdfParams,
+    /// Weight of deformation, the feature added to the BSWDF's motion terms (see [`Feedback`]):
+    /// a node's salience is raised by `deformation_weight × ε`, with `ε` the mean relative
+    /// length change `|ℓ/ℓ₀ − 1|` of its links (≥ 0; 0 turns it off). Default 20: a 5%
+    /// stretch weighs as much as fully salient motion. Linear on purpose, unlike the motion
+    /// response: the error a coarse node makes grows with the strain it cannot represent, so
+    /// the ranking must keep growing where a viewer's impression would saturate.
+    pub deformation_weight: f32,
     /// Salience memory in seconds (≥ 0; 0 turns it off): a node's salience is the larger of
     /// its current value and its remembered value decayed by `exp(−t / memory_seconds)`.
     ///
@@ -75,13 +85,14 @@ impl Default for FeedbackSettings {
         FeedbackSettings {
             interval: 5,
             budget: ClothBudget::Compression(0.3),
-            hysteresis: 2.0,
+            hysteresis: 6.0,
             max_ops: 64,
             priority: PriorityModel::default(),
             params: BswdfParams {
                 sides: Sidedness::TwoSided,
                 ..BswdfParams::default()
             },
+            deformation_weight: 20.0,
             memory_seconds: 0.5,
             parallel: false,
             controller: ControllerSettings::default(),
@@ -110,6 +121,9 @@ impl FeedbackSettings {
         }
         if !(self.hysteresis.is_finite() && self.hysteresis >= 0.0) {
             return bad("hysteresis", "must be finite and >= 0");
+        }
+        if !(self.deformation_weight.is_finite() && self.deformation_weight >= 0.0) {
+            return bad("deformation_weight", "must be finite and >= 0");
         }
         if !(self.memory_seconds.is_finite() && self.memory_seconds >= 0.0) {
             return bad("memory_seconds", "must be finite and >= 0");
@@ -140,6 +154,21 @@ impl FeedbackSettings {
 }
 
 /// The feedback loop's state: settings, evaluator, controller and reused buffers.
+///
+/// # Deformation, the feature the paper's BSWDF lacks
+/// The paper's animation features are motion only, and it says itself that other features are
+/// needed. Measured on its own scenario, motion alone is not enough: on the swinging net at 30%
+/// it puts detail on the free edges (they flap, so they move unlike their neighbours) and ends
+/// up no better than a uniform cut, because what a coarse cut gets wrong there is where the
+/// cloth is *strained*: around the pinned corners, which carry the whole weight. A viewer sees
+/// strain as a stretched pattern, and a coarse node misrepresents exactly those regions (the
+/// missing degrees of freedom make the material effectively stiffer). So each node also gets
+/// a deformation term, its links' mean relative length change times
+/// [`FeedbackSettings::deformation_weight`], weighted by whether it is in view and added to
+/// the motion salience (so the sum may exceed 1; it is a priority, not a probability). With
+/// it the feedback cut
+/// has a lower error than uniform and random cuts (test
+/// `swinging_net_at_30_percent_beats_uniform_and_random_cuts`); without it, it does not.
 #[derive(Clone, Debug)]
 pub(crate) struct Feedback {
     pub(crate) settings: FeedbackSettings,
@@ -152,6 +181,8 @@ pub(crate) struct Feedback {
     offsets: Vec<u32>,
     neighbours: Vec<u32>,
     salience: Vec<f32>,
+    /// Per particle: summed link strain and summed link weight.
+    strain: Vec<(f32, f32)>,
     /// Priority per hierarchy node (only active nodes' entries are meaningful).
     pub(crate) priorities: Vec<f32>,
     /// Remembered salience per hierarchy node, and the evaluation that last wrote it.
@@ -190,6 +221,7 @@ impl Feedback {
             offsets: Vec::new(),
             neighbours: Vec::new(),
             salience: Vec::new(),
+            strain: Vec::new(),
             priorities: vec![0.0; hierarchy_len],
             memory: vec![0.0; hierarchy_len],
             memory_stamp: vec![0; hierarchy_len],
@@ -261,6 +293,9 @@ impl Feedback {
         } else {
             salience::evaluate(&view, &input, &nbrs, &mut self.salience)?;
         }
+        if self.settings.deformation_weight > 0.0 {
+            self.add_deformation(body, camera);
+        }
         let cut = body.cut();
         let h = body.hierarchy();
         let decay = if self.settings.memory_seconds > 0.0 {
@@ -312,6 +347,41 @@ impl Feedback {
             *slot = slot.max(value(parent));
         }
         Ok(())
+    }
+
+    /// Adds each particle's weighted link strain to its motion salience.
+    fn add_deformation(&mut self, body: &TreeCutSoftBody, camera: &Camera) {
+        let n = self.positions.len();
+        self.strain.clear();
+        self.strain.resize(n, (0.0, 0.0));
+        for l in body.links() {
+            let (a, b) = (l.a.0 as usize, l.b.0 as usize);
+            if l.rest <= 0.0 || l.weight <= 0.0 {
+                continue;
+            }
+            let e = l.weight * (self.positions[a].distance(self.positions[b]) / l.rest - 1.0).abs();
+            for p in [a, b] {
+                self.strain[p].0 += e;
+                self.strain[p].1 += l.weight;
+            }
+        }
+        let params = &self.settings.params;
+        for ((s, &(sum, weight)), &x) in self
+            .salience
+            .iter_mut()
+            .zip(&self.strain)
+            .zip(&self.positions)
+        {
+            if weight <= 0.0 {
+                continue;
+            }
+            let view = if camera.is_in_view(x, params.view_margin) {
+                1.0
+            } else {
+                params.outside_view_weight
+            };
+            *s += self.settings.deformation_weight * (sum / weight) * view;
+        }
     }
 
     /// The salience `node` had at evaluation `previous`: its own if it was simulated then,

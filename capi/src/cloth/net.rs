@@ -17,7 +17,7 @@ use std::time::Instant;
 use glam::Vec3;
 use salience::Camera;
 use softbody::{DrawLink, Material, ReconstructionError, SolverSettings, TreeCutSettings};
-use treecut::{Budget, Cut, Evaluator, EvaluatorSettings, GridSpec, Hierarchy, NodeId, Op};
+use treecut::{Cut, GridSpec, Hierarchy, NodeId};
 
 use super::adaptive::AdaptiveCloth;
 use super::error::ClothError;
@@ -143,6 +143,20 @@ pub enum NetRunKind {
         /// Fraction of the full node count.
         compression: f32,
     },
+}
+
+impl NetRunKind {
+    /// A stable machine-readable name: `reference`, `feedback`, `time_budget`, `uniform` or
+    /// `random`.
+    pub fn name(self) -> &'static str {
+        match self {
+            NetRunKind::Reference => "reference",
+            NetRunKind::Feedback { .. } => "feedback",
+            NetRunKind::TimeBudget { .. } => "time_budget",
+            NetRunKind::Uniform { .. } => "uniform",
+            NetRunKind::Random { .. } => "random",
+        }
+    }
 }
 
 /// The state of a run after some step, for pictures.
@@ -308,7 +322,7 @@ pub fn run_net(config: &NetConfig, progress: Progress<'_>) -> Result<NetReport, 
             budget: ClothBudget::TargetStepMs(ms),
             ..config.feedback
         }))?;
-        let label = format!("time budget {ms} ms");
+        let label = format!("time budget {ms:.2} ms");
         runs.push(simulate(
             &mut cloth,
             NetRunKind::TimeBudget { target_ms: ms },
@@ -428,49 +442,45 @@ fn simulate(
     })
 }
 
-/// Refines from the root, always the node with the highest `priority`, until `nodes` nodes
-/// are active (or nothing more fits).
-fn grow_cut(h: &Hierarchy, nodes: usize, priority: &[f32]) -> Result<Cut, ClothError> {
+/// Refines from the root, always the node with the highest `key`, while the cut stays within
+/// `nodes` nodes (a node whose children do not fit is skipped, a smaller fanout may still fit).
+/// O(n log n) in the cut size.
+fn grow_cut(h: &Hierarchy, nodes: usize, key: impl Fn(NodeId) -> u64) -> Result<Cut, ClothError> {
     let mut cut = Cut::root(h);
-    let mut eval = Evaluator::new(EvaluatorSettings {
-        hysteresis: 0.0,
-        max_ops: usize::MAX,
-        ..EvaluatorSettings::default()
-    });
-    // Each round applies a batch; swaps only happen for a strict priority gain, so the rounds
-    // end. The cap is a guard, never reached on the cuts built here.
-    for _ in 0..10_000 {
-        let ops = eval.evaluate(h, &cut, priority, None, Budget::Nodes(nodes))?;
-        if ops.is_empty() {
-            break;
+    let mut heap = std::collections::BinaryHeap::new();
+    let root = h.root();
+    if !h.is_leaf(root) {
+        heap.push((key(root), std::cmp::Reverse(root)));
+    }
+    while let Some((_, std::cmp::Reverse(n))) = heap.pop() {
+        if cut.len() + h.child_count(n) - 1 > nodes {
+            continue;
         }
-        for &op in ops {
-            match op {
-                Op::Refine(n) => cut.refine(h, n),
-                Op::Coarse(n) => cut.coarse(h, n),
+        cut.refine(h, n).map_err(softbody::TreeCutError::from)?;
+        for c in h.children(n) {
+            if !h.is_leaf(c) {
+                heap.push((key(c), std::cmp::Reverse(c)));
             }
-            .map_err(softbody::TreeCutError::from)?;
         }
     }
     Ok(cut)
 }
 
-/// A cut of about `nodes` nodes in which every region is at about the same depth: refine
-/// the largest nodes first, ties in an order spread evenly over the cloth (a hash of the id).
+/// A cut of at most `nodes` nodes in which every region is at about the same depth: the
+/// largest nodes are refined first, ties in an order spread evenly over the cloth (a hash of
+/// the id). O(n log n).
 pub fn uniform_cut(h: &Hierarchy, nodes: usize) -> Result<Cut, ClothError> {
-    let priority: Vec<f32> = (0..h.len())
-        .map(|i| {
-            let n = NodeId::new(i);
-            h.vertices(n).len() as f32 + 0.5 * unit_hash(i as u64, 0x0123)
-        })
-        .collect();
-    grow_cut(h, nodes, &priority)
+    grow_cut(h, nodes, |n| {
+        ((h.vertices(n).len() as u64) << 32) | (unit_hash(n.index() as u64, 0x0123) * 4.0e9) as u64
+    })
 }
 
-/// A cut of about `nodes` nodes refined in random order (a fixed random priority per node).
+/// A cut of at most `nodes` nodes refined in random order (a fixed random key per node).
+/// O(n log n).
 pub fn random_cut(h: &Hierarchy, nodes: usize, seed: u64) -> Result<Cut, ClothError> {
-    let priority: Vec<f32> = (0..h.len()).map(|i| unit_hash(i as u64, seed)).collect();
-    grow_cut(h, nodes, &priority)
+    grow_cut(h, nodes, |n| {
+        (unit_hash(n.index() as u64, seed) * 4.0e9) as u64
+    })
 }
 
 /// A hash of `(i, seed)` mapped to [0, 1) (splitmix64).

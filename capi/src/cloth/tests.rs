@@ -68,7 +68,7 @@ fn swinging_net_at_30_percent_beats_uniform_and_random_cuts() {
     }
     // The budget holds on average (transitions in flight may add a few nodes for a moment).
     assert!(fb.nodes <= fb.budget_nodes as f64 * 1.01, "{}", fb.nodes);
-    assert!(fb.operations > 50, "the cut adapted: {}", fb.operations);
+    assert!(fb.operations > 20, "the cut adapted: {}", fb.operations);
     assert!(
         (fb.undone_operations as f64) < 0.01 * fb.operations as f64,
         "{} of {} operations undone",
