@@ -20,6 +20,11 @@
 
 
 /**
+ * An operation undone within this many steps counts as flicker in [`ClothStats::undone_ops`].
+ */
+#define UNDO_WINDOW_STEPS 30
+
+/**
  * Major version of the C ABI; a change breaks existing hosts.
  */
 #define SLOD_VERSION_MAJOR 0
@@ -39,6 +44,37 @@
  * Creation refuses a desc without it: a zero-filled struct is a bug, not a configuration.
  */
 #define SLOD_DESC_GUARD 1359863388
+
+/**
+ * Most finest-level vertices a cloth may have (grid or mesh).
+ */
+#define SLOD_MAX_CLOTH_VERTICES (1 << 22)
+
+/**
+ * Most triangles a mesh cloth may have.
+ */
+#define SLOD_MAX_CLOTH_TRIANGLES (1 << 24)
+
+/**
+ * Largest magnitude of any position coordinate slod accepts (centres, vertices, anchors,
+ * character positions), in world units.
+ */
+#define SLOD_MAX_COORDINATE 1.0e6
+
+/**
+ * The node index meaning "no node" (the parent of the root).
+ */
+#define SLOD_NO_NODE UINT32_MAX
+
+/**
+ * Largest glTF blob `slod_rig_load_memory` accepts, in bytes (1 GiB).
+ */
+#define SLOD_MAX_GLTF_BYTES (1 << 30)
+
+/**
+ * Largest playback speed a character accepts (1 = real time).
+ */
+#define SLOD_MAX_PLAYBACK_SPEED 1000.0
 
 /**
  * Outcome of every fallible slod function. `SLOD_RESULT_OK` is 0; codes are only ever appended.
@@ -96,7 +132,136 @@ typedef uint32_t SlodResult;
 #endif // __cplusplus
 
 /**
- * Everything a host created: cloths, rigs and characters. Opaque to C.
+ * Kind of light (values of `SlodLight::kind`).
+ */
+enum SlodLightKind
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /**
+   * No light: salience uses the animation features alone.
+   */
+  SLOD_LIGHT_KIND_NONE = 0,
+  /**
+   * A directional light; `vector` points towards the light.
+   */
+  SLOD_LIGHT_KIND_DIRECTIONAL = 1,
+  /**
+   * A point light; `vector` is its position.
+   */
+  SLOD_LIGHT_KIND_POINT = 2,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum SlodLightKind SlodLightKind;
+#else
+typedef uint32_t SlodLightKind;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * What the feedback loop's budget counts (values of `SlodFeedbackDesc::budget_kind`).
+ */
+enum SlodClothBudget
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /**
+   * At most `budget_value` simulated nodes (an integer >= 1).
+   */
+  SLOD_CLOTH_BUDGET_NODES = 0,
+  /**
+   * `budget_value` is the fraction of the finest node count simulated, in (0, 1]
+   * (0.3 simulates 30% of the nodes).
+   */
+  SLOD_CLOTH_BUDGET_COMPRESSION = 1,
+  /**
+   * `budget_value` is a target wall time per step in milliseconds (> 0, <= 1e6); a controller
+   * moves the node budget to hold it (results then depend on the machine's speed).
+   */
+  SLOD_CLOTH_BUDGET_TARGET_STEP_MS = 2,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum SlodClothBudget SlodClothBudget;
+#else
+typedef uint32_t SlodClothBudget;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * How salience becomes a node's priority (values of `SlodFeedbackDesc::priority`).
+ */
+enum SlodPriorityModel
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /**
+   * Salience times the node's projected radius in pixels (the default).
+   */
+  SLOD_PRIORITY_MODEL_SCREEN_ERROR = 0,
+  /**
+   * The BSWDF salience alone, as in the paper.
+   */
+  SLOD_PRIORITY_MODEL_SALIENCE = 1,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum SlodPriorityModel SlodPriorityModel;
+#else
+typedef uint32_t SlodPriorityModel;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * How a crowd chooses each character's detail (values of `SlodLodDesc::mode`).
+ */
+enum SlodLodMode
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /**
+   * Every animated bone interpolates every frame.
+   */
+  SLOD_LOD_MODE_OFF = 0,
+  /**
+   * Camera ratio from distance: full detail nearer than `range_min`, none beyond `range_max`,
+   * linear between (the thesis' range).
+   */
+  SLOD_LOD_MODE_RANGE = 1,
+  /**
+   * Camera ratio from the projected radius of the character's bounds: full detail at
+   * `full_detail_px` and above, frozen below `freeze_below_px`.
+   */
+  SLOD_LOD_MODE_PIXEL_SIZE = 2,
+  /**
+   * A crowd-wide budget of `bone_updates_per_frame` bone interpolations per frame, spent where
+   * held bones have built up the most on-screen error.
+   */
+  SLOD_LOD_MODE_BUDGET = 3,
+  /**
+   * Hold a bone only while its estimated on-screen drift stays under `max_error_px` pixels.
+   */
+  SLOD_LOD_MODE_ERROR_BOUND = 4,
+  /**
+   * The same camera ratio `ratio` (in [0, 1]) for every character.
+   */
+  SLOD_LOD_MODE_RATIO = 5,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum SlodLodMode SlodLodMode;
+#else
+typedef uint32_t SlodLodMode;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * Everything a host created: cloths, rigs, crowds and characters. Opaque to C.
  *
  * Threads: a world is used from one thread at a time; functions taking `const SlodWorld*` may
  * run concurrently with each other; distinct worlds are independent.
@@ -112,11 +277,545 @@ typedef struct SlodWorldDesc {
    */
   uint32_t guard;
   /**
-   * Worker threads for evaluation and crowd updates; 0 lets slod choose, 1 runs everything on
-   * the calling thread.
+   * Worker threads for the cloth feedback stage: 0 uses one process-wide pool sized to the
+   * machine, 1 runs everything on the calling thread (no thread is ever started), n >= 2
+   * gives this world its own pool of n threads (at most 1024), stopped when it is destroyed.
    */
   uint32_t worker_threads;
 } SlodWorldDesc;
+
+/**
+ * How many objects of each kind a world holds.
+ */
+typedef struct SlodWorldCounts {
+  /**
+   * Live cloths.
+   */
+  uint32_t cloths;
+  /**
+   * Live rigs (destroyed rigs still used by a crowd are not counted).
+   */
+  uint32_t rigs;
+  /**
+   * Live crowds.
+   */
+  uint32_t crowds;
+  /**
+   * Live characters over all crowds.
+   */
+  uint32_t characters;
+} SlodWorldCounts;
+
+/**
+ * The host's camera: a pinhole with a vertical field of view, a viewport in pixels and a near
+ * plane. Plain data: the host fills every field (there is no default).
+ */
+typedef struct SlodCamera {
+  /**
+   * Eye position, world units.
+   */
+  float position[3];
+  /**
+   * Viewing direction (need not be unit length, must not be zero).
+   */
+  float forward[3];
+  /**
+   * Image up direction (not parallel to `forward`).
+   */
+  float up[3];
+  /**
+   * Vertical field of view in radians, in (0, π).
+   */
+  float fov_y_radians;
+  /**
+   * Viewport width in pixels (> 0).
+   */
+  uint32_t viewport_width;
+  /**
+   * Viewport height in pixels (> 0).
+   */
+  uint32_t viewport_height;
+  /**
+   * Near plane distance (> 0, finite): the crowd treats what is nearer as not visible.
+   */
+  float near_plane;
+} SlodCamera;
+
+/**
+ * The light the cloth salience multiplies by (Lambertian: `ambient + diffuse · max(0, n·l)`).
+ */
+typedef struct SlodLight {
+  /**
+   * A `SlodLightKind` value.
+   */
+  uint32_t kind;
+  /**
+   * Direction towards the light (directional) or its position (point).
+   */
+  float vector[3];
+  /**
+   * Ambient term (finite, >= 0, ambient + diffuse <= 1; 0.2 is typical).
+   */
+  float ambient;
+  /**
+   * Diffuse term (finite, >= 0, ambient + diffuse <= 1; 0.8 is typical).
+   */
+  float diffuse;
+} SlodLight;
+
+/**
+ * Time stepping and material of a cloth (part of `SlodClothDesc`).
+ */
+typedef struct SlodSolverDesc {
+  /**
+   * Seconds advanced by one `slod_cloth_step`, in (0, 1].
+   */
+  float dt;
+  /**
+   * Substeps per step, 1..=1024 (more substeps converge stiffer than more iterations).
+   */
+  uint32_t substeps;
+  /**
+   * Constraint sweeps per substep, 1..=1024.
+   */
+  uint32_t iterations;
+  /**
+   * Gravity acceleration in m/s² (each component finite, |g| <= 1e4).
+   */
+  float gravity[3];
+  /**
+   * Velocity damping rate in 1/s, in [0, 1e4].
+   */
+  float damping;
+  /**
+   * Compliance (inverse stiffness, m/N) of every link, in [0, 1e6]; the same at every
+   * resolution, so coarse and fine cuts are the same material.
+   */
+  float stretch_compliance;
+  /**
+   * Steps over which a refine or coarse blends old links out and new ones in, 0..=65536.
+   */
+  uint32_t blend_steps;
+} SlodSolverDesc;
+
+/**
+ * How to build a cloth. Get one from `slod_default_cloth_desc` and change what you need.
+ *
+ * The grid fields (`columns` … `axis_v`) are used by `slod_cloth_create_grid` only;
+ * `solver` and `initial_level` by both creation functions.
+ */
+typedef struct SlodClothDesc {
+  /**
+   * Set by `slod_default_cloth_desc`; do not change.
+   */
+  uint32_t guard;
+  /**
+   * Vertices along `axis_u` (>= 2; columns × rows <= `SLOD_MAX_CLOTH_VERTICES`). Vertex
+   * (i, j) has index `j * columns + i`.
+   */
+  uint32_t columns;
+  /**
+   * Vertices along `axis_v` (>= 2).
+   */
+  uint32_t rows;
+  /**
+   * Distance between neighbouring vertices, in (0, 1e4].
+   */
+  float spacing;
+  /**
+   * Mass of the whole cloth in kg, in (0, 1e9], spread evenly over the vertices.
+   */
+  float total_mass;
+  /**
+   * Rest position of the grid's centre.
+   */
+  float center[3];
+  /**
+   * Direction of the columns (normalised by slod; finite, non-zero).
+   */
+  float axis_u[3];
+  /**
+   * Direction of the rows (normalised by slod; finite, non-zero, not parallel to `axis_u`).
+   */
+  float axis_v[3];
+  /**
+   * Time stepping and material.
+   */
+  struct SlodSolverDesc solver;
+  /**
+   * Level of the initial cut: 0 = every finest vertex simulated, 1 = one node per 2×2
+   * block, … (clamped to the coarsest level).
+   */
+  uint32_t initial_level;
+} SlodClothDesc;
+
+/**
+ * Settings of a cloth's feedback loop. Get one from `slod_default_feedback_desc`.
+ */
+typedef struct SlodFeedbackDesc {
+  /**
+   * Set by `slod_default_feedback_desc`; do not change.
+   */
+  uint32_t guard;
+  /**
+   * A `SlodClothBudget` value.
+   */
+  uint32_t budget_kind;
+  /**
+   * The budget's value; its meaning and range depend on `budget_kind`.
+   */
+  double budget_value;
+  /**
+   * Evaluate every `interval` steps, 1..=100000 (the paper's k).
+   */
+  uint32_t interval;
+  /**
+   * Most refine/coarse operations begun per evaluation, 1..=1048576.
+   */
+  uint32_t max_ops;
+  /**
+   * Minimum priority gain for moving detail (finite, >= 0): keeps nodes from flickering.
+   */
+  float hysteresis;
+  /**
+   * Salience memory in seconds, in [0, 1e4] (0 turns it off).
+   */
+  float memory_seconds;
+  /**
+   * A `SlodPriorityModel` value.
+   */
+  uint32_t priority;
+  /**
+   * 1 splits the salience evaluation over the world's worker threads, 0 does not (ignored by
+   * a world created with one worker thread).
+   */
+  uint32_t parallel;
+} SlodFeedbackDesc;
+
+/**
+ * A cloth (adaptive TreeCut soft body) in a world.
+ *
+ * `index1` is a slot index plus one and `generation` the slot's stamp; the all-zero value is
+ * the null id, never issued. Compare ids with both fields.
+ */
+typedef struct SlodClothId {
+  /**
+   * Slot index plus one; 0 for the null id.
+   */
+  uint32_t index1;
+  /**
+   * Generation stamp of the slot when the id was issued.
+   */
+  uint32_t generation;
+} SlodClothId;
+
+/**
+ * Counters and last measurements of a cloth (`slod_cloth_stats`).
+ */
+typedef struct SlodClothStats {
+  /**
+   * Steps taken.
+   */
+  uint64_t steps;
+  /**
+   * Feedback evaluations run.
+   */
+  uint64_t evaluations;
+  /**
+   * Refines begun (by feedback or explicitly).
+   */
+  uint64_t refines;
+  /**
+   * Coarses begun (by feedback or explicitly).
+   */
+  uint64_t coarses;
+  /**
+   * Operations the evaluator proposed that a transition in flight refused (retried later).
+   */
+  uint64_t refused;
+  /**
+   * Operations that undid one on the same node begun within 30 steps (flicker).
+   */
+  uint64_t undone_ops;
+  /**
+   * Wall time of the last step, evaluation included, in milliseconds.
+   */
+  double last_step_ms;
+  /**
+   * Wall time of the last feedback evaluation, in milliseconds.
+   */
+  double last_eval_ms;
+  /**
+   * Simulated nodes now.
+   */
+  uint32_t nodes;
+  /**
+   * Links now (plain and group links).
+   */
+  uint32_t links;
+  /**
+   * Refine/coarse transitions being blended now (the paper's "interpolations").
+   */
+  uint32_t interpolations;
+  /**
+   * The node budget of the last evaluation (0 before the first).
+   */
+  uint32_t node_budget;
+  /**
+   * Finest-level vertices (what `slod_cloth_vertex_positions` writes).
+   */
+  uint32_t vertices;
+  /**
+   * Nodes in the hierarchy (valid node indices are `0..hierarchy_nodes`).
+   */
+  uint32_t hierarchy_nodes;
+} SlodClothStats;
+
+/**
+ * One hierarchy node (`slod_cloth_node_info`).
+ */
+typedef struct SlodNodeInfo {
+  /**
+   * Parent node, `SLOD_NO_NODE` for the root.
+   */
+  uint32_t parent;
+  /**
+   * First child; the children are `first_child .. first_child + child_count`.
+   */
+  uint32_t first_child;
+  /**
+   * Number of children (0 for a finest-level node).
+   */
+  uint32_t child_count;
+  /**
+   * Level: 0 for finest-level nodes, growing towards the root.
+   */
+  uint32_t level;
+  /**
+   * 1 if the node is on the cut (simulated, or the parent being formed by a coarse).
+   */
+  uint32_t on_cut;
+  /**
+   * 1 if a transition in flight locks it (refine and coarse are refused until it ends).
+   */
+  uint32_t locked;
+} SlodNodeInfo;
+
+/**
+ * A link for debug drawing (`slod_cloth_links`).
+ */
+typedef struct SlodDebugLink {
+  /**
+   * First end, current position.
+   */
+  float a[3];
+  /**
+   * Second end, current position (the children's centroid for a group link).
+   */
+  float b[3];
+  /**
+   * Blend weight in [0, 1] (fading in or out during a transition, else 1).
+   */
+  float weight;
+  /**
+   * 1 for a group link to a virtual parent (a transition in flight), 0 for a plain link.
+   */
+  uint32_t group;
+} SlodDebugLink;
+
+/**
+ * A rig loaded from glTF (skeleton, clips, skins), shared by the crowds that use it.
+ *
+ * `index1` is a slot index plus one and `generation` the slot's stamp; the all-zero value is
+ * the null id, never issued. Compare ids with both fields.
+ */
+typedef struct SlodRigId {
+  /**
+   * Slot index plus one; 0 for the null id.
+   */
+  uint32_t index1;
+  /**
+   * Generation stamp of the slot when the id was issued.
+   */
+  uint32_t generation;
+} SlodRigId;
+
+/**
+ * What a rig holds (`slod_rig_info`).
+ */
+typedef struct SlodRigInfo {
+  /**
+   * Bones of the skeleton (the length `slod_character_model_matrices` writes).
+   */
+  uint32_t bones;
+  /**
+   * Animation clips; valid clip indices are `0..clips`.
+   */
+  uint32_t clips;
+  /**
+   * Skins; valid skin indices are `0..skins`.
+   */
+  uint32_t skins;
+  /**
+   * Centre of a sphere (skeleton model space) holding every joint in the rest pose and the
+   * first pose of every clip.
+   */
+  float bounds_center[3];
+  /**
+   * Radius of that sphere.
+   */
+  float bounds_radius;
+} SlodRigInfo;
+
+/**
+ * A crowd's LOD mode and its parameters. Get one from `slod_default_lod_desc`; only the
+ * fields of the chosen `mode` are read (but all must be valid numbers for it).
+ */
+typedef struct SlodLodDesc {
+  /**
+   * Set by `slod_default_lod_desc`; do not change.
+   */
+  uint32_t guard;
+  /**
+   * A `SlodLodMode` value.
+   */
+  uint32_t mode;
+  /**
+   * `SLOD_LOD_MODE_RANGE`: distance (world units) below which a character is at full detail
+   * (finite, >= 0).
+   */
+  float range_min;
+  /**
+   * `SLOD_LOD_MODE_RANGE`: distance beyond which no bone interpolates (finite, > range_min).
+   */
+  float range_max;
+  /**
+   * `SLOD_LOD_MODE_PIXEL_SIZE`: projected radius (pixels) of full detail (finite, > 0).
+   */
+  float full_detail_px;
+  /**
+   * `SLOD_LOD_MODE_PIXEL_SIZE`: projected radius below which a character freezes
+   * (finite, 0 <= value < full_detail_px).
+   */
+  float freeze_below_px;
+  /**
+   * `SLOD_LOD_MODE_BUDGET`: bone interpolations per frame over the whole crowd.
+   */
+  uint32_t bone_updates_per_frame;
+  /**
+   * `SLOD_LOD_MODE_ERROR_BOUND`: largest on-screen drift of a held bone, pixels (finite, > 0).
+   */
+  float max_error_px;
+  /**
+   * `SLOD_LOD_MODE_RATIO`: the camera ratio of every character, in [0, 1].
+   */
+  float ratio;
+} SlodLodDesc;
+
+/**
+ * How to build a crowd. Get one from `slod_default_crowd_desc`.
+ */
+typedef struct SlodCrowdDesc {
+  /**
+   * Set by `slod_default_crowd_desc`; do not change.
+   */
+  uint32_t guard;
+  /**
+   * The initial LOD mode (change it later with `slod_crowd_set_lod`).
+   */
+  struct SlodLodDesc lod;
+} SlodCrowdDesc;
+
+/**
+ * A crowd: characters of one rig animated together under one LOD mode.
+ *
+ * `index1` is a slot index plus one and `generation` the slot's stamp; the all-zero value is
+ * the null id, never issued. Compare ids with both fields.
+ */
+typedef struct SlodCrowdId {
+  /**
+   * Slot index plus one; 0 for the null id.
+   */
+  uint32_t index1;
+  /**
+   * Generation stamp of the slot when the id was issued.
+   */
+  uint32_t generation;
+} SlodCrowdId;
+
+/**
+ * What one `slod_crowd_advance` did, summed over the crowd.
+ */
+typedef struct SlodCrowdStats {
+  /**
+   * Animated bones that interpolated their channels this frame.
+   */
+  uint64_t bones_interpolated;
+  /**
+   * Animated bones that held their last local transform (the work LOD saved).
+   */
+  uint64_t bones_held;
+  /**
+   * Bones with no animated channel in the current clip (never sampled).
+   */
+  uint64_t bones_constant;
+  /**
+   * Model-space matrices recomputed (subtrees that held entirely are skipped).
+   */
+  uint64_t bones_concatenated;
+  /**
+   * Characters advanced.
+   */
+  uint32_t characters;
+  /**
+   * Characters of which nothing interpolated (out of range, invisible or without budget).
+   */
+  uint32_t characters_frozen;
+} SlodCrowdStats;
+
+/**
+ * How to add a character. Get one from `slod_default_character_desc`.
+ */
+typedef struct SlodCharacterDesc {
+  /**
+   * Set by `slod_default_character_desc`; do not change.
+   */
+  uint32_t guard;
+  /**
+   * World position of the skeleton's origin (characters are not rotated; every coordinate
+   * finite, within `SLOD_MAX_COORDINATE`).
+   */
+  float position[3];
+  /**
+   * Clip index in the crowd's rig (`0..SlodRigInfo::clips`).
+   */
+  uint32_t clip;
+  /**
+   * Start time within the clip in seconds (finite; wrapped into the clip).
+   */
+  float time;
+  /**
+   * Playback speed, in [0, `SLOD_MAX_PLAYBACK_SPEED`] (1 = real time).
+   */
+  float speed;
+} SlodCharacterDesc;
+
+/**
+ * A character (an animated instance) in a crowd.
+ *
+ * `index1` is a slot index plus one and `generation` the slot's stamp; the all-zero value is
+ * the null id, never issued. Compare ids with both fields.
+ */
+typedef struct SlodCharacterId {
+  /**
+   * Slot index plus one; 0 for the null id.
+   */
+  uint32_t index1;
+  /**
+   * Generation stamp of the slot when the id was issued.
+   */
+  uint32_t generation;
+} SlodCharacterId;
 
 #ifdef __cplusplus
 extern "C" {
@@ -146,13 +845,28 @@ void slod_last_error(char *buf, size_t cap, size_t *out_len);
 uint32_t slod_version(void);
 
 /**
- * The default world settings (all work on the calling thread's pool choice).
+ * The default world settings (worker_threads 0: the process-wide pool).
+ *
+ * Returns a value the host owns; change fields, then pass it to `slod_world_create`.
  */
 struct SlodWorldDesc slod_default_world_desc(void);
 
 /**
- * Creates a world and writes its owning pointer to `*out_world`. Destroy it with
- * `slod_world_destroy`, which frees everything created in it.
+ * Writes how many cloths, rigs, crowds and characters the world holds to `*out_counts`.
+ *
+ * Threads: reads the world only (may run concurrently with other `const SlodWorld*` calls).
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_counts` NULL or valid for a write.
+ */
+SlodResult slod_world_counts(const struct SlodWorld *world, struct SlodWorldCounts *out_counts);
+
+/**
+ * Creates a world and writes its owning pointer to `*out_world`.
+ *
+ * Ownership: the host owns the world and must destroy it with `slod_world_destroy`, which frees
+ * everything created in it. The desc is copied. Threads: any thread may create worlds; a world is
+ * then used from one thread at a time.
  *
  * # Safety
  * `desc` must be NULL or point to a valid `SlodWorldDesc`; `out_world` NULL or valid for a write.
@@ -160,14 +874,678 @@ struct SlodWorldDesc slod_default_world_desc(void);
 SlodResult slod_world_create(const struct SlodWorldDesc *desc, struct SlodWorld **out_world);
 
 /**
- * Destroys a world and everything in it. NULL is accepted and ignored. The pointer and every id
- * from this world are invalid afterwards.
+ * Destroys a world and everything in it (cloths, rigs, crowds, characters, worker threads).
+ *
+ * NULL is accepted and ignored. The pointer and every id from this world are invalid afterwards;
+ * ids of this world passed to another world return `SLOD_RESULT_STALE_ID` there.
  *
  * # Safety
  * `world` must be NULL or a pointer returned by `slod_world_create` not yet destroyed, and no
  * other thread may be using it.
  */
 void slod_world_destroy(struct SlodWorld *world);
+
+/**
+ * Sets the camera every cloth and crowd of the world sees from now on.
+ *
+ * Invalid values (NaN, zero viewport, field of view outside (0, π), zero or parallel
+ * directions, near plane not > 0) return `SLOD_RESULT_INVALID_ARGUMENT` and the previous camera
+ * stays. Cloths pick it up at their next `slod_cloth_step`, crowds at their next
+ * `slod_crowd_advance`. Threads: mutates the world. The struct is copied; the host keeps it.
+ *
+ * # Safety
+ * `world` must be NULL or a live world used by no other thread; `camera` NULL or valid.
+ */
+SlodResult slod_world_set_camera(struct SlodWorld *world, const struct SlodCamera *camera);
+
+/**
+ * Sets (or with kind `SLOD_LIGHT_KIND_NONE` clears) the light cloth salience uses.
+ *
+ * Invalid values (NaN, unknown kind, zero direction, negative terms, ambient + diffuse > 1)
+ * return `SLOD_RESULT_INVALID_ARGUMENT` and the previous light stays. Cloths pick it up at
+ * their next step. Threads: mutates the world. The struct is copied; the host keeps it.
+ *
+ * # Safety
+ * `world` must be NULL or a live world used by no other thread; `light` NULL or valid.
+ */
+SlodResult slod_world_set_light(struct SlodWorld *world, const struct SlodLight *light);
+
+/**
+ * The default cloth: the paper's swinging net (65×65 vertices 2 m wide, 1 kg, horizontal in
+ * the XZ plane around the origin), solver at 60 Hz with 16 substeps, starting at level 1.
+ *
+ * Returns a value the host owns; change fields, then pass it to a creation function.
+ */
+struct SlodClothDesc slod_default_cloth_desc(void);
+
+/**
+ * The default feedback settings: 30% compression, evaluated every 5 steps, hysteresis 2,
+ * at most 32 operations per evaluation, 0.5 s salience memory, screen-error priority, serial.
+ *
+ * Returns a value the host owns; change fields, then pass it to `slod_cloth_set_feedback`.
+ */
+struct SlodFeedbackDesc slod_default_feedback_desc(void);
+
+/**
+ * Creates a grid cloth (a quadtree hierarchy over `columns × rows` vertices) and writes its id.
+ *
+ * Ownership: the world owns the cloth; destroy it with `slod_cloth_destroy` or with the world.
+ * The desc is copied. Threads: mutates the world. Errors: `SLOD_RESULT_INVALID_ARGUMENT` names
+ * the bad desc field (`desc` for a missing guard); nothing is created.
+ *
+ * # Safety
+ * `world` NULL or a live world; `desc` NULL or valid; `out_cloth` NULL or valid for a write.
+ */
+SlodResult slod_cloth_create_grid(struct SlodWorld *world,
+                                  const struct SlodClothDesc *desc,
+                                  struct SlodClothId *out_cloth);
+
+/**
+ * Creates a cloth from the host's own triangle mesh and writes its id.
+ *
+ * `positions` holds `vertex_count` rest positions (float[3] each), `triangles` holds
+ * `triangle_count` index triples, `masses` is NULL (each vertex gets a third of its triangles'
+ * area times 1 kg/m²) or holds `vertex_count` masses (finite, > 0). The mesh must be
+ * connected and use every vertex. Uses `desc->solver` and `desc->initial_level`; the grid
+ * fields are ignored. Vertex indices are the host's: pins, reconstructed positions and
+ * `slod_cloth_vertex_count` follow them.
+ *
+ * Ownership: the arrays are read during the call only (the host keeps them); the world owns the
+ * cloth. Threads: mutates the world. Errors: `SLOD_RESULT_INVALID_ARGUMENT` names the bad
+ * argument (`positions`, `triangles`, `masses`, `vertex_count`, a desc field); nothing is created.
+ *
+ * # Safety
+ * `world` NULL or a live world; `desc` NULL or valid; `positions` valid for `vertex_count`
+ * reads, `triangles` for `triangle_count` reads, `masses` NULL or valid for `vertex_count`
+ * reads; `out_cloth` NULL or valid for a write.
+ */
+SlodResult slod_cloth_create_mesh(struct SlodWorld *world,
+                                  const struct SlodClothDesc *desc,
+                                  const float (*positions)[3],
+                                  size_t vertex_count,
+                                  const uint32_t (*triangles)[3],
+                                  size_t triangle_count,
+                                  const float *masses,
+                                  struct SlodClothId *out_cloth);
+
+/**
+ * Destroys a cloth; its id (and every copy) is stale afterwards.
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID` if `cloth` is not a live cloth of
+ * this world (nothing happens).
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_cloth_destroy(struct SlodWorld *world, struct SlodClothId cloth);
+
+/**
+ * Advances a cloth by one step of `desc.solver.dt` seconds.
+ *
+ * The cloth first takes the world's current camera and light. With feedback on, every
+ * `interval` steps the step also measures salience and begins the refines and coarses the
+ * evaluator chose; transitions whose blend is done end inside the step. Threads: mutates the
+ * world; with feedback `parallel` the salience stage uses the world's worker threads. Errors:
+ * `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_REFUSED` if the feedback stage refused its inputs
+ * (nothing stepped).
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_cloth_step(struct SlodWorld *world, struct SlodClothId cloth);
+
+/**
+ * Begins refining hierarchy node `node` (replacing it by its children over `blend_steps` steps).
+ *
+ * Node indices come from `slod_cloth_active_nodes` / `slod_cloth_node_ids` /
+ * `slod_cloth_node_info`. Threads: mutates the world. Errors: `SLOD_RESULT_INVALID_ARGUMENT` for
+ * an index outside the hierarchy; `SLOD_RESULT_REFUSED` (nothing changed) if the node is not on
+ * the cut, is a leaf, or is locked by a transition in flight.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_cloth_refine(struct SlodWorld *world, struct SlodClothId cloth, uint32_t node);
+
+/**
+ * Begins coarsening hierarchy node `node` (replacing its children, all on the cut, by it).
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_INVALID_ARGUMENT` for an index outside the
+ * hierarchy; `SLOD_RESULT_REFUSED` (nothing changed) unless all its children are on the cut and
+ * neither they nor it are locked.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_cloth_coarse(struct SlodWorld *world, struct SlodClothId cloth, uint32_t node);
+
+/**
+ * Pins finest vertex `vertex` at (`x`, `y`, `z`), or moves its pin there.
+ *
+ * The node covering the vertex becomes a kinematic anchor reaching the new position over the
+ * next step; pins follow their vertex through refines and coarses. Threads: mutates the world.
+ * Errors: `SLOD_RESULT_INVALID_ARGUMENT` for a vertex out of range or a coordinate not finite or
+ * beyond `SLOD_MAX_COORDINATE`.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_cloth_pin_vertex(struct SlodWorld *world,
+                                 struct SlodClothId cloth,
+                                 uint32_t vertex,
+                                 float x,
+                                 float y,
+                                 float z);
+
+/**
+ * Releases the pin of finest vertex `vertex` (no effect if it is not pinned).
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_INVALID_ARGUMENT` for a vertex out of range.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_cloth_unpin_vertex(struct SlodWorld *world,
+                                   struct SlodClothId cloth,
+                                   uint32_t vertex);
+
+/**
+ * Turns a cloth's feedback loop on (or changes its settings).
+ *
+ * From the next step on the cloth measures what the world's camera sees every `interval` steps
+ * and moves its cut under the budget. Threads: mutates the world. Errors:
+ * `SLOD_RESULT_INVALID_ARGUMENT` names the bad desc field; `SLOD_RESULT_REFUSED` if the world
+ * has no camera yet (call `slod_world_set_camera` first). Nothing changes on error.
+ *
+ * # Safety
+ * `world` NULL or a live world; `desc` NULL or valid.
+ */
+SlodResult slod_cloth_set_feedback(struct SlodWorld *world,
+                                   struct SlodClothId cloth,
+                                   const struct SlodFeedbackDesc *desc);
+
+/**
+ * Turns a cloth's feedback loop off; the cut stays where it is (no effect if it was off).
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_cloth_disable_feedback(struct SlodWorld *world, struct SlodClothId cloth);
+
+/**
+ * Writes a cloth's statistics to `*out_stats`.
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_stats` NULL or valid for a write.
+ */
+SlodResult slod_cloth_stats(const struct SlodWorld *world,
+                            struct SlodClothId cloth,
+                            struct SlodClothStats *out_stats);
+
+/**
+ * Writes the number of simulated nodes now (the length `slod_cloth_node_positions` needs).
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_count` NULL or valid for a write.
+ */
+SlodResult slod_cloth_node_count(const struct SlodWorld *world,
+                                 struct SlodClothId cloth,
+                                 size_t *out_count);
+
+/**
+ * Writes the number of links now, plain and group links (the length `slod_cloth_links` needs).
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_count` NULL or valid for a write.
+ */
+SlodResult slod_cloth_link_count(const struct SlodWorld *world,
+                                 struct SlodClothId cloth,
+                                 size_t *out_count);
+
+/**
+ * Writes the number of refine/coarse transitions being blended now.
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_count` NULL or valid for a write.
+ */
+SlodResult slod_cloth_interpolations(const struct SlodWorld *world,
+                                     struct SlodClothId cloth,
+                                     size_t *out_count);
+
+/**
+ * Writes the number of finest-level vertices (the length `slod_cloth_vertex_positions` needs;
+ * for a mesh cloth, the host's vertex count).
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_count` NULL or valid for a write.
+ */
+SlodResult slod_cloth_vertex_count(const struct SlodWorld *world,
+                                   struct SlodClothId cloth,
+                                   size_t *out_count);
+
+/**
+ * Copies the position of every simulated node (float[3] each) to `out`.
+ *
+ * Entry i is simulated node i; `slod_cloth_node_ids` gives its hierarchy node in the same order.
+ * Buffer: copy-out; `cap` and `*out_len` count nodes (call with `cap` 0 to size it; the count
+ * changes when the cut does). Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`,
+ * `SLOD_RESULT_BUFFER_TOO_SMALL` (with the needed count in `*out_len`).
+ *
+ * # Safety
+ * `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
+ * valid for a write.
+ */
+SlodResult slod_cloth_node_positions(const struct SlodWorld *world,
+                                     struct SlodClothId cloth,
+                                     float (*out)[3],
+                                     size_t cap,
+                                     size_t *out_len);
+
+/**
+ * Copies the hierarchy node of every simulated node to `out` (same order as the positions).
+ *
+ * During a coarse in flight the children are still simulated while their parent is on the cut.
+ * Buffer: copy-out, counted in nodes. Threads: reads the world only. Errors:
+ * `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_BUFFER_TOO_SMALL`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
+ * valid for a write.
+ */
+SlodResult slod_cloth_node_ids(const struct SlodWorld *world,
+                               struct SlodClothId cloth,
+                               uint32_t *out,
+                               size_t cap,
+                               size_t *out_len);
+
+/**
+ * Copies the nodes on the cut (what `slod_cloth_refine` and, via parents, `slod_cloth_coarse`
+ * address) to `out`, in no particular order.
+ *
+ * Buffer: copy-out, counted in nodes. Threads: reads the world only. Errors:
+ * `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_BUFFER_TOO_SMALL`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
+ * valid for a write.
+ */
+SlodResult slod_cloth_active_nodes(const struct SlodWorld *world,
+                                   struct SlodClothId cloth,
+                                   uint32_t *out,
+                                   size_t cap,
+                                   size_t *out_len);
+
+/**
+ * Writes what the hierarchy says about node `node` to `*out_info` (parent, children, level, and
+ * whether it is on the cut or locked now).
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+ * for a node outside the hierarchy.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_info` NULL or valid for a write.
+ */
+SlodResult slod_cloth_node_info(const struct SlodWorld *world,
+                                struct SlodClothId cloth,
+                                uint32_t node,
+                                struct SlodNodeInfo *out_info);
+
+/**
+ * Reconstructs every finest-level vertex from the simulated nodes and copies the positions
+ * (float[3] each, in vertex index order) to `out`: what a renderer draws.
+ *
+ * Takes a mutable world because reconstruction warm-starts from a per-node rotation cache.
+ * Buffer: copy-out, counted in vertices (`slod_cloth_vertex_count`; fixed for the cloth's life).
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_BUFFER_TOO_SMALL`
+ * (checked before any work).
+ *
+ * # Safety
+ * `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
+ * valid for a write.
+ */
+SlodResult slod_cloth_vertex_positions(struct SlodWorld *world,
+                                       struct SlodClothId cloth,
+                                       float (*out)[3],
+                                       size_t cap,
+                                       size_t *out_len);
+
+/**
+ * Copies every link with its blend weight to `out`, for debug drawing.
+ *
+ * Group links join a particle to the centroid of a transition's children (the virtual parent).
+ * Buffer: copy-out, counted in links (`slod_cloth_link_count`; changes with the cut). Threads:
+ * reads the world only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_BUFFER_TOO_SMALL`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
+ * valid for a write.
+ */
+SlodResult slod_cloth_links(const struct SlodWorld *world,
+                            struct SlodClothId cloth,
+                            struct SlodDebugLink *out,
+                            size_t cap,
+                            size_t *out_len);
+
+/**
+ * Loads a rig (skeleton, clips, skins) from a .glb or .gltf file and writes its id.
+ *
+ * `path` is a NUL-terminated path (bytes as the OS takes them on Unix, UTF-8 elsewhere); buffer
+ * files a .gltf references are looked up next to it. Ownership: the world owns the rig; the
+ * path is read during the call only. Threads: mutates the world. Errors: `SLOD_RESULT_IO_ERROR`
+ * if a file cannot be read, `SLOD_RESULT_PARSE_ERROR` with the importer's message for malformed
+ * or unsupported glTF (no skin, bad accessors, ...). Nothing is created on error.
+ *
+ * # Safety
+ * `world` NULL or a live world; `path` NULL or a NUL-terminated string; `out_rig` NULL or valid
+ * for a write.
+ */
+SlodResult slod_rig_load_file(struct SlodWorld *world, const char *path, struct SlodRigId *out_rig);
+
+/**
+ * Loads a rig from a .glb or a self-contained .gltf (data URIs) held in memory.
+ *
+ * Ownership: the bytes are read during the call only (the host keeps them); the world owns the
+ * rig. Threads: mutates the world. Errors: `SLOD_RESULT_INVALID_ARGUMENT` for `len` 0 or above
+ * `SLOD_MAX_GLTF_BYTES`, `SLOD_RESULT_PARSE_ERROR` with the importer's message. Nothing is
+ * created on error.
+ *
+ * # Safety
+ * `world` NULL or a live world; `bytes` valid for `len` reads; `out_rig` NULL or valid for a
+ * write.
+ */
+SlodResult slod_rig_load_memory(struct SlodWorld *world,
+                                const uint8_t *bytes,
+                                size_t len,
+                                struct SlodRigId *out_rig);
+
+/**
+ * Destroys the world's reference to a rig; its id is stale at once.
+ *
+ * Crowds created from the rig keep their own reference and keep working; the rig's memory is
+ * freed with the last of them. Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_rig_destroy(struct SlodWorld *world, struct SlodRigId rig);
+
+/**
+ * Writes the rig's bone, clip and skin counts and its bounds to `*out_info`.
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_info` NULL or valid for a write.
+ */
+SlodResult slod_rig_info(const struct SlodWorld *world,
+                         struct SlodRigId rig,
+                         struct SlodRigInfo *out_info);
+
+/**
+ * Copies the name of clip `clip` (UTF-8, NUL-terminated) to `buf`.
+ *
+ * Buffer: copy-out counted in bytes including the NUL: `*out_len` receives the name's length
+ * plus one; with `cap` smaller nothing is written and `SLOD_RESULT_BUFFER_TOO_SMALL` returned.
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+ * for a bad clip index.
+ *
+ * # Safety
+ * `world` NULL or a live world; `buf` valid for `cap` writes (NULL if `cap` is 0); `out_len`
+ * valid for a write.
+ */
+SlodResult slod_rig_clip_name(const struct SlodWorld *world,
+                              struct SlodRigId rig,
+                              uint32_t clip,
+                              char *buf,
+                              size_t cap,
+                              size_t *out_len);
+
+/**
+ * Writes the duration in seconds of clip `clip` to `*out_seconds`.
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_seconds` NULL or valid for a write.
+ */
+SlodResult slod_rig_clip_duration(const struct SlodWorld *world,
+                                  struct SlodRigId rig,
+                                  uint32_t clip,
+                                  float *out_seconds);
+
+/**
+ * Writes the index of the first clip named `name` to `*out_clip`.
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_INVALID_ARGUMENT`
+ * if no clip has that name or it is not UTF-8.
+ *
+ * # Safety
+ * `world` NULL or a live world; `name` NULL or NUL-terminated; `out_clip` NULL or valid for a
+ * write.
+ */
+SlodResult slod_rig_find_clip(const struct SlodWorld *world,
+                              struct SlodRigId rig,
+                              const char *name,
+                              uint32_t *out_clip);
+
+/**
+ * Writes the number of joints of skin `skin` (the length `slod_character_skinning_matrices`
+ * writes) to `*out_count`.
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_count` NULL or valid for a write.
+ */
+SlodResult slod_rig_skin_joint_count(const struct SlodWorld *world,
+                                     struct SlodRigId rig,
+                                     uint32_t skin,
+                                     size_t *out_count);
+
+/**
+ * The default LOD: `SLOD_LOD_MODE_OFF`, with the other modes' fields preset (range 5–50,
+ * pixel size 200/1 px, 5000 bone updates per frame, 0.5 px error bound, ratio 1) so that setting
+ * `mode` alone gives a working configuration.
+ *
+ * Returns a value the host owns.
+ */
+struct SlodLodDesc slod_default_lod_desc(void);
+
+/**
+ * The default crowd settings (LOD from `slod_default_lod_desc`). Returns a value the host owns.
+ */
+struct SlodCrowdDesc slod_default_crowd_desc(void);
+
+/**
+ * Creates an empty crowd animating characters of `rig` and writes its id.
+ *
+ * Ownership: the world owns the crowd; the crowd holds its own reference to the rig (destroying
+ * the rig later does not affect it). The desc is copied. Threads: mutates the world. Errors:
+ * `SLOD_RESULT_STALE_ID` for `rig`, `SLOD_RESULT_INVALID_ARGUMENT` naming the bad LOD field.
+ *
+ * # Safety
+ * `world` NULL or a live world; `desc` NULL or valid; `out_crowd` NULL or valid for a write.
+ */
+SlodResult slod_crowd_create(struct SlodWorld *world,
+                             struct SlodRigId rig,
+                             const struct SlodCrowdDesc *desc,
+                             struct SlodCrowdId *out_crowd);
+
+/**
+ * Destroys a crowd and every character in it (their ids go stale).
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_crowd_destroy(struct SlodWorld *world, struct SlodCrowdId crowd);
+
+/**
+ * Changes a crowd's LOD mode from the next advance on.
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+ * naming the bad field (the mode stays as it was).
+ *
+ * # Safety
+ * `world` NULL or a live world; `lod` NULL or valid.
+ */
+SlodResult slod_crowd_set_lod(struct SlodWorld *world,
+                              struct SlodCrowdId crowd,
+                              const struct SlodLodDesc *lod);
+
+/**
+ * Advances every character of a crowd by `dt` seconds and updates their poses under the
+ * crowd's LOD mode, seen by the world's camera; writes what the frame did to `*out_stats`.
+ *
+ * Until the world has a camera, crowds see from the origin with no view direction (everything
+ * visible, distances from the origin). Threads: mutates the world. Errors:
+ * `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_INVALID_ARGUMENT` for `dt` not finite or outside
+ * [0, 3600] (nothing advanced).
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_stats` NULL or valid for a write.
+ */
+SlodResult slod_crowd_advance(struct SlodWorld *world,
+                              struct SlodCrowdId crowd,
+                              float dt,
+                              struct SlodCrowdStats *out_stats);
+
+/**
+ * Writes the number of live characters of a crowd to `*out_count`.
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_count` NULL or valid for a write.
+ */
+SlodResult slod_crowd_character_count(const struct SlodWorld *world,
+                                      struct SlodCrowdId crowd,
+                                      size_t *out_count);
+
+/**
+ * The default character: at the origin, clip 0 from time 0, speed 1. Returns a value the host
+ * owns.
+ */
+struct SlodCharacterDesc slod_default_character_desc(void);
+
+/**
+ * Adds a character to a crowd and writes its id; its pose is evaluated at once.
+ *
+ * Ownership: the crowd owns the character; destroy it with `slod_character_destroy`, or with
+ * its crowd or world. The desc is copied. Threads: mutates the world. Errors:
+ * `SLOD_RESULT_STALE_ID` for `crowd`, `SLOD_RESULT_INVALID_ARGUMENT` naming the bad desc field.
+ *
+ * # Safety
+ * `world` NULL or a live world; `desc` NULL or valid; `out_character` NULL or valid for a write.
+ */
+SlodResult slod_character_create(struct SlodWorld *world,
+                                 struct SlodCrowdId crowd,
+                                 const struct SlodCharacterDesc *desc,
+                                 struct SlodCharacterId *out_character);
+
+/**
+ * Removes a character from its crowd; its id (and every copy) is stale afterwards.
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_character_destroy(struct SlodWorld *world, struct SlodCharacterId character);
+
+/**
+ * Moves a character to (`x`, `y`, `z`) (world position of its skeleton's origin).
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_INVALID_ARGUMENT`
+ * for a coordinate not finite or beyond `SLOD_MAX_COORDINATE`.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_character_set_position(struct SlodWorld *world,
+                                       struct SlodCharacterId character,
+                                       float x,
+                                       float y,
+                                       float z);
+
+/**
+ * Switches a character to clip `clip` at `time` seconds (wrapped into the clip); the pose is
+ * evaluated at once.
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_INVALID_ARGUMENT`
+ * for a bad clip index or a time that is not finite.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_character_set_clip(struct SlodWorld *world,
+                                   struct SlodCharacterId character,
+                                   uint32_t clip,
+                                   float time);
+
+/**
+ * Sets a character's playback speed, in [0, `SLOD_MAX_PLAYBACK_SPEED`] (1 = real time).
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_character_set_speed(struct SlodWorld *world,
+                                    struct SlodCharacterId character,
+                                    float speed);
+
+/**
+ * Copies a character's bone matrices in skeleton model space (one float[16] per bone,
+ * column-major: element `col * 4 + row`, translation in elements 12..14) to `out`.
+ *
+ * Add the character's position for world space. Bone order is the rig's (parents first).
+ * Buffer: copy-out counted in matrices (`SlodRigInfo::bones`); the values change at the next
+ * `slod_crowd_advance`. Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`,
+ * `SLOD_RESULT_BUFFER_TOO_SMALL`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
+ * valid for a write.
+ */
+SlodResult slod_character_model_matrices(const struct SlodWorld *world,
+                                         struct SlodCharacterId character,
+                                         float (*out)[16],
+                                         size_t cap,
+                                         size_t *out_len);
+
+/**
+ * Copies a character's skinning matrices for skin `skin` (model matrix × inverse bind matrix
+ * per joint, skeleton model space, float[16] column-major as in
+ * `slod_character_model_matrices`) to `out`: what a skinning shader takes.
+ *
+ * Buffer: copy-out counted in matrices (`slod_rig_skin_joint_count`). Threads: reads the world
+ * only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT` for a bad skin index,
+ * `SLOD_RESULT_BUFFER_TOO_SMALL`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
+ * valid for a write.
+ */
+SlodResult slod_character_skinning_matrices(const struct SlodWorld *world,
+                                            struct SlodCharacterId character,
+                                            uint32_t skin,
+                                            float (*out)[16],
+                                            size_t cap,
+                                            size_t *out_len);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -100,7 +100,13 @@ impl<T> Arena<T> {
         self.slots.len() - self.free.len()
     }
 
-    pub(crate) fn iter_mut(&mut self) -> impl Iterator<Item = &mut T> {
-        self.slots.iter_mut().filter_map(|s| s.value.as_mut())
+    /// Removes every object for which `remove` returns true (their ids go stale).
+    pub(crate) fn remove_where(&mut self, mut remove: impl FnMut(&T) -> bool) {
+        for (i, s) in self.slots.iter_mut().enumerate() {
+            if s.value.as_ref().is_some_and(&mut remove) {
+                s.value = None;
+                self.free.push(i as u32);
+            }
+        }
     }
 }

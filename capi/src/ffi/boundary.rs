@@ -109,6 +109,61 @@ pub(crate) unsafe fn copy_out<T: Copy>(
     Ok(())
 }
 
+/// [`copy_out`] of `src` converted element by element with `f` (no intermediate buffer).
+///
+/// # Safety
+/// As for [`copy_out`].
+pub(crate) unsafe fn copy_out_map<S, T>(
+    src: &[S],
+    f: impl Fn(&S) -> T,
+    out: *mut T,
+    cap: usize,
+    out_len: *mut usize,
+    name: &'static str,
+) -> Result<(), FfiError> {
+    if out_len.is_null() {
+        return Err(FfiError::Null("out_len"));
+    }
+    // SAFETY: checked non-NULL above; validity per caller contract.
+    unsafe { *out_len = src.len() };
+    if src.len() > cap {
+        return Err(FfiError::BufferTooSmall {
+            arg: name,
+            cap,
+            needed: src.len(),
+        });
+    }
+    if src.is_empty() {
+        return Ok(());
+    }
+    if out.is_null() {
+        return Err(FfiError::Null(name));
+    }
+    for (i, s) in src.iter().enumerate() {
+        // SAFETY: `out` is non-NULL and valid for `cap >= src.len()` writes per the caller
+        // contract, and `i < src.len()`.
+        unsafe { out.add(i).write(f(s)) };
+    }
+    Ok(())
+}
+
+/// Reads a NUL-terminated UTF-8 string argument.
+///
+/// # Safety
+/// A non-NULL `p` must point to a NUL-terminated string valid for the duration of the call.
+pub(crate) unsafe fn c_str<'a>(
+    p: *const std::ffi::c_char,
+    name: &'static str,
+) -> Result<&'a str, FfiError> {
+    if p.is_null() {
+        return Err(FfiError::Null(name));
+    }
+    // SAFETY: non-NULL and NUL-terminated per the caller contract.
+    let s = unsafe { std::ffi::CStr::from_ptr(p) };
+    s.to_str()
+        .map_err(|_| FfiError::invalid(name, "not valid UTF-8"))
+}
+
 /// Writes a value to a trailing output pointer.
 ///
 /// # Safety

@@ -4,15 +4,38 @@
 //!
 //! This is the only module of slod that contains `unsafe` code or `extern "C"` items. Every
 //! function body runs inside [`boundary::boundary`], so no panic crosses into C.
+//!
+//! Files by subject: [`world`] (world, versions, desc guard), [`view`] (camera, light),
+//! [`cloth`] and [`cloth_query`] (adaptive cloth), [`rig`], [`crowd`] and [`character`]
+//! (animation), [`result`] (codes and the last error).
 
+// Declaration order is the order of the generated header: basics first, then cloth, then
+// animation (separate groups, so rustfmt keeps it).
 mod arena;
 mod boundary;
 pub mod ids;
 pub mod result;
-pub mod view;
+
 pub mod world;
 
+pub mod view;
+
+pub mod cloth;
+
+pub mod cloth_query;
+
+pub mod rig;
+
+pub mod crowd;
+
+pub mod character;
+
+pub use character::*;
+pub use cloth::*;
+pub use cloth_query::*;
+pub use crowd::*;
 pub use ids::{SlodCharacterId, SlodClothId, SlodCrowdId, SlodRigId};
-pub use result::SlodResult;
-pub use view::{SlodCamera, SlodLight, SlodLightKind};
-pub use world::{SlodWorld, SlodWorldDesc};
+pub use result::{SlodResult, slod_last_error, slod_result_str};
+pub use rig::*;
+pub use view::*;
+pub use world::*;

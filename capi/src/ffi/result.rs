@@ -55,6 +55,8 @@ pub(crate) enum FfiError {
 }
 
 impl FfiError {
+    // Callers hand over temporaries (messages, errors); taking them by value reads best.
+    #[allow(clippy::needless_pass_by_value)]
     pub(crate) fn invalid(arg: &'static str, reason: impl ToString) -> Self {
         FfiError::Invalid {
             arg,

@@ -6,7 +6,8 @@ use super::result::{FfiError, SlodResult};
 use super::world::SlodWorld;
 use glam::Vec3;
 
-/// The host's camera: a pinhole with a vertical field of view and a viewport in pixels.
+/// The host's camera: a pinhole with a vertical field of view, a viewport in pixels and a near
+/// plane. Plain data: the host fills every field (there is no default).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SlodCamera {
@@ -22,9 +23,11 @@ pub struct SlodCamera {
     pub viewport_width: u32,
     /// Viewport height in pixels (> 0).
     pub viewport_height: u32,
+    /// Near plane distance (> 0, finite): the crowd treats what is nearer as not visible.
+    pub near_plane: f32,
 }
 
-/// Kind of light for [`SlodLight`].
+/// Kind of light (values of `SlodLight::kind`).
 #[repr(u32)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SlodLightKind {
@@ -44,9 +47,9 @@ pub struct SlodLight {
     pub kind: u32,
     /// Direction towards the light (directional) or its position (point).
     pub vector: [f32; 3],
-    /// Ambient term in [0, 1].
+    /// Ambient term (finite, >= 0, ambient + diffuse <= 1; 0.2 is typical).
     pub ambient: f32,
-    /// Diffuse term in [0, 1].
+    /// Diffuse term (finite, >= 0, ambient + diffuse <= 1; 0.8 is typical).
     pub diffuse: f32,
 }
 
@@ -63,6 +66,39 @@ impl SlodCamera {
         )
         .map_err(|e| FfiError::invalid("camera", e))
     }
+
+    /// The crowd's camera for an already validated salience camera (same eye, unit forward,
+    /// field of view, viewport), or an error naming a bad near plane.
+    pub(crate) fn to_animlod(
+        self,
+        checked: &salience::Camera,
+    ) -> Result<animlod::Camera, FfiError> {
+        if !(self.near_plane.is_finite() && self.near_plane > 0.0) {
+            return Err(FfiError::invalid(
+                "camera.near_plane",
+                "must be finite and > 0",
+            ));
+        }
+        let camera = animlod::Camera {
+            position: checked.position(),
+            forward: Some(checked.forward()),
+            fov_y: checked.fov_y_radians(),
+            viewport_height: checked.height_px() as f32,
+            aspect: checked.width_px() as f32 / checked.height_px() as f32,
+            near: self.near_plane,
+        };
+        camera
+            .validate()
+            .map_err(|e| FfiError::invalid("camera", e))?;
+        Ok(camera)
+    }
+}
+
+/// The world's camera in the form each system uses (validated once, when set).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct WorldCamera {
+    pub(crate) cloth: salience::Camera,
+    pub(crate) crowd: animlod::Camera,
 }
 
 impl SlodLight {
@@ -82,9 +118,12 @@ impl SlodLight {
     }
 }
 
-/// Sets the camera every cloth and crowd of the world sees from now on. Invalid values (NaN,
-/// zero viewport, field of view outside (0, π), zero or parallel directions) are refused and the
-/// previous camera stays.
+/// Sets the camera every cloth and crowd of the world sees from now on.
+///
+/// Invalid values (NaN, zero viewport, field of view outside (0, π), zero or parallel
+/// directions, near plane not > 0) return `SLOD_RESULT_INVALID_ARGUMENT` and the previous camera
+/// stays. Cloths pick it up at their next `slod_cloth_step`, crowds at their next
+/// `slod_crowd_advance`. Threads: mutates the world. The struct is copied; the host keeps it.
 ///
 /// # Safety
 /// `world` must be NULL or a live world used by no other thread; `camera` NULL or valid.
@@ -98,14 +137,18 @@ pub unsafe extern "C" fn slod_world_set_camera(
         let world = unsafe { arg_mut(world, "world") }?;
         // SAFETY: caller contract: NULL or a valid camera.
         let camera = *unsafe { arg(camera, "camera") }?;
-        let checked = camera.to_salience()?;
-        world.camera = Some((camera, checked));
+        let cloth = camera.to_salience()?;
+        let crowd = camera.to_animlod(&cloth)?;
+        world.camera = Some(WorldCamera { cloth, crowd });
         Ok(())
     })
 }
 
-/// Sets (or with kind `SLOD_LIGHT_KIND_NONE` clears) the light cloth salience uses. Invalid values
-/// are refused and the previous light stays.
+/// Sets (or with kind `SLOD_LIGHT_KIND_NONE` clears) the light cloth salience uses.
+///
+/// Invalid values (NaN, unknown kind, zero direction, negative terms, ambient + diffuse > 1)
+/// return `SLOD_RESULT_INVALID_ARGUMENT` and the previous light stays. Cloths pick it up at
+/// their next step. Threads: mutates the world. The struct is copied; the host keeps it.
 ///
 /// # Safety
 /// `world` must be NULL or a live world used by no other thread; `light` NULL or valid.

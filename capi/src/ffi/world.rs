@@ -6,7 +6,7 @@ use std::sync::Arc;
 use super::arena::{Arena, RawId};
 use super::boundary::{arg, boundary, write_out};
 use super::result::{FfiError, SlodResult};
-use super::view::SlodCamera;
+use super::view::WorldCamera;
 use crate::cloth::AdaptiveCloth;
 
 /// Major version of the C ABI; a change breaks existing hosts.
@@ -44,12 +44,15 @@ pub(crate) fn check_guard(guard: u32, name: &'static str) -> Result<(), FfiError
 pub struct SlodWorldDesc {
     /// Set by `slod_default_world_desc`; do not change.
     pub guard: u32,
-    /// Worker threads for evaluation and crowd updates; 0 lets slod choose, 1 runs everything on
-    /// the calling thread.
+    /// Worker threads for the cloth feedback stage: 0 uses one process-wide pool sized to the
+    /// machine, 1 runs everything on the calling thread (no thread is ever started), n >= 2
+    /// gives this world its own pool of n threads (at most 1024), stopped when it is destroyed.
     pub worker_threads: u32,
 }
 
-/// The default world settings (all work on the calling thread's pool choice).
+/// The default world settings (worker_threads 0: the process-wide pool).
+///
+/// Returns a value the host owns; change fields, then pass it to `slod_world_create`.
 #[unsafe(no_mangle)]
 pub extern "C" fn slod_default_world_desc() -> SlodWorldDesc {
     SlodWorldDesc {
@@ -58,25 +61,107 @@ pub extern "C" fn slod_default_world_desc() -> SlodWorldDesc {
     }
 }
 
-/// Everything a host created: cloths, rigs and characters. Opaque to C.
+/// A cloth and the scratch buffers its queries reuse (no allocation per call once warm).
+#[derive(Debug)]
+pub(crate) struct ClothEntry {
+    pub(crate) cloth: AdaptiveCloth,
+    pub(crate) vertices: Vec<glam::Vec3>,
+}
+
+/// Everything a host created: cloths, rigs, crowds and characters. Opaque to C.
 ///
 /// Threads: a world is used from one thread at a time; functions taking `const SlodWorld*` may
 /// run concurrently with each other; distinct worlds are independent.
 pub struct SlodWorld {
     pub(crate) desc: SlodWorldDesc,
-    /// The host's camera as given and as checked, once set.
-    pub(crate) camera: Option<(SlodCamera, salience::Camera)>,
+    /// Worker threads of this world when the desc asked for two or more (else the global pool
+    /// or none).
+    pub(crate) pool: Option<rayon::ThreadPool>,
+    /// The host's camera as each system uses it, once set.
+    pub(crate) camera: Option<WorldCamera>,
     /// The light cloth salience multiplies by, if any.
     pub(crate) light: Option<salience::Light>,
-    pub(crate) cloths: Arena<AdaptiveCloth>,
+    pub(crate) cloths: Arena<ClothEntry>,
     pub(crate) rigs: Arena<Arc<animlod::Rig>>,
     pub(crate) crowds: Arena<animlod::Crowd>,
     /// Each character's crowd and its id inside that crowd.
     pub(crate) characters: Arena<(RawId, animlod::CharacterId)>,
 }
 
-/// Creates a world and writes its owning pointer to `*out_world`. Destroy it with
-/// `slod_world_destroy`, which frees everything created in it.
+impl std::fmt::Debug for SlodWorld {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SlodWorld")
+            .field("desc", &self.desc)
+            .field("cloths", &self.cloths.len())
+            .field("rigs", &self.rigs.len())
+            .field("crowds", &self.crowds.len())
+            .field("characters", &self.characters.len())
+            .finish_non_exhaustive()
+    }
+}
+
+impl SlodWorld {
+    /// Runs `f` on this world's worker threads (or the global pool / the calling thread).
+    pub(crate) fn run<R: Send>(
+        pool: Option<&rayon::ThreadPool>,
+        f: impl FnOnce() -> R + Send,
+    ) -> R {
+        match pool {
+            Some(p) => p.install(f),
+            None => f(),
+        }
+    }
+
+    /// Whether parallel work is allowed (a desc with one worker thread forbids it).
+    pub(crate) fn parallel_allowed(&self) -> bool {
+        self.desc.worker_threads != 1
+    }
+}
+
+/// How many objects of each kind a world holds.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SlodWorldCounts {
+    /// Live cloths.
+    pub cloths: u32,
+    /// Live rigs (destroyed rigs still used by a crowd are not counted).
+    pub rigs: u32,
+    /// Live crowds.
+    pub crowds: u32,
+    /// Live characters over all crowds.
+    pub characters: u32,
+}
+
+/// Writes how many cloths, rigs, crowds and characters the world holds to `*out_counts`.
+///
+/// Threads: reads the world only (may run concurrently with other `const SlodWorld*` calls).
+///
+/// # Safety
+/// `world` NULL or a live world; `out_counts` NULL or valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_world_counts(
+    world: *const SlodWorld,
+    out_counts: *mut SlodWorldCounts,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world.
+        let world = unsafe { arg(world, "world") }?;
+        let counts = SlodWorldCounts {
+            cloths: world.cloths.len() as u32,
+            rigs: world.rigs.len() as u32,
+            crowds: world.crowds.len() as u32,
+            characters: world.characters.len() as u32,
+        };
+        // SAFETY: caller contract: NULL or valid for a write.
+        unsafe { write_out(out_counts, counts, "out_counts") }
+    })
+}
+
+/// Creates a world and writes its owning pointer to `*out_world`.
+///
+/// Ownership: the host owns the world and must destroy it with `slod_world_destroy`, which frees
+/// everything created in it. The desc is copied. Threads: any thread may create worlds; a world is
+/// then used from one thread at a time.
 ///
 /// # Safety
 /// `desc` must be NULL or point to a valid `SlodWorldDesc`; `out_world` NULL or valid for a write.
@@ -95,8 +180,18 @@ pub unsafe extern "C" fn slod_world_create(
         if out_world.is_null() {
             return Err(FfiError::Null("out_world"));
         }
+        let pool = match desc.worker_threads {
+            0 | 1 => None,
+            n => Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(n as usize)
+                    .build()
+                    .map_err(|e| FfiError::Refused(format!("cannot start worker threads: {e}")))?,
+            ),
+        };
         let world = Box::new(SlodWorld {
             desc,
+            pool,
             camera: None,
             light: None,
             cloths: Arena::default(),
@@ -109,8 +204,10 @@ pub unsafe extern "C" fn slod_world_create(
     })
 }
 
-/// Destroys a world and everything in it. NULL is accepted and ignored. The pointer and every id
-/// from this world are invalid afterwards.
+/// Destroys a world and everything in it (cloths, rigs, crowds, characters, worker threads).
+///
+/// NULL is accepted and ignored. The pointer and every id from this world are invalid afterwards;
+/// ids of this world passed to another world return `SLOD_RESULT_STALE_ID` there.
 ///
 /// # Safety
 /// `world` must be NULL or a pointer returned by `slod_world_create` not yet destroyed, and no

@@ -1,0 +1,750 @@
+//! Cloth lifetime and control over the C ABI: the grid and mesh descs, create/destroy, step,
+//! explicit refine/coarse, pins and the feedback loop's settings. Queries are in `cloth_query`.
+
+use glam::Vec3;
+use softbody::{Material, SolverSettings, TreeCutError, TreeCutSettings};
+use treecut::{BuildError, GridSpec, Hierarchy, NodeId};
+
+use super::arena::RawId;
+use super::boundary::{arg, arg_mut, boundary, slice, write_out};
+use super::ids::SlodClothId;
+use super::result::{FfiError, SlodResult};
+use super::world::{ClothEntry, SLOD_DESC_GUARD, SlodWorld, check_guard};
+use crate::cloth::{AdaptiveCloth, ClothBudget, ClothError, FeedbackSettings, PriorityModel, net};
+
+/// Most finest-level vertices a cloth may have (grid or mesh).
+pub const SLOD_MAX_CLOTH_VERTICES: u32 = 1 << 22;
+/// Most triangles a mesh cloth may have.
+pub const SLOD_MAX_CLOTH_TRIANGLES: u32 = 1 << 24;
+/// Largest magnitude of any position coordinate slod accepts (centres, vertices, anchors,
+/// character positions), in world units.
+pub const SLOD_MAX_COORDINATE: f32 = 1.0e6;
+/// The node index meaning "no node" (the parent of the root).
+pub const SLOD_NO_NODE: u32 = u32::MAX;
+
+/// Time stepping and material of a cloth (part of `SlodClothDesc`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SlodSolverDesc {
+    /// Seconds advanced by one `slod_cloth_step`, in (0, 1].
+    pub dt: f32,
+    /// Substeps per step, 1..=1024 (more substeps converge stiffer than more iterations).
+    pub substeps: u32,
+    /// Constraint sweeps per substep, 1..=1024.
+    pub iterations: u32,
+    /// Gravity acceleration in m/s² (each component finite, |g| <= 1e4).
+    pub gravity: [f32; 3],
+    /// Velocity damping rate in 1/s, in [0, 1e4].
+    pub damping: f32,
+    /// Compliance (inverse stiffness, m/N) of every link, in [0, 1e6]; the same at every
+    /// resolution, so coarse and fine cuts are the same material.
+    pub stretch_compliance: f32,
+    /// Steps over which a refine or coarse blends old links out and new ones in, 0..=65536.
+    pub blend_steps: u32,
+}
+
+/// How to build a cloth. Get one from `slod_default_cloth_desc` and change what you need.
+///
+/// The grid fields (`columns` … `axis_v`) are used by `slod_cloth_create_grid` only;
+/// `solver` and `initial_level` by both creation functions.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SlodClothDesc {
+    /// Set by `slod_default_cloth_desc`; do not change.
+    pub guard: u32,
+    /// Vertices along `axis_u` (>= 2; columns × rows <= `SLOD_MAX_CLOTH_VERTICES`). Vertex
+    /// (i, j) has index `j * columns + i`.
+    pub columns: u32,
+    /// Vertices along `axis_v` (>= 2).
+    pub rows: u32,
+    /// Distance between neighbouring vertices, in (0, 1e4].
+    pub spacing: f32,
+    /// Mass of the whole cloth in kg, in (0, 1e9], spread evenly over the vertices.
+    pub total_mass: f32,
+    /// Rest position of the grid's centre.
+    pub center: [f32; 3],
+    /// Direction of the columns (normalised by slod; finite, non-zero).
+    pub axis_u: [f32; 3],
+    /// Direction of the rows (normalised by slod; finite, non-zero, not parallel to `axis_u`).
+    pub axis_v: [f32; 3],
+    /// Time stepping and material.
+    pub solver: SlodSolverDesc,
+    /// Level of the initial cut: 0 = every finest vertex simulated, 1 = one node per 2×2
+    /// block, … (clamped to the coarsest level).
+    pub initial_level: u32,
+}
+
+/// What the feedback loop's budget counts (values of `SlodFeedbackDesc::budget_kind`).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SlodClothBudget {
+    /// At most `budget_value` simulated nodes (an integer >= 1).
+    Nodes = 0,
+    /// `budget_value` is the fraction of the finest node count simulated, in (0, 1]
+    /// (0.3 simulates 30% of the nodes).
+    Compression = 1,
+    /// `budget_value` is a target wall time per step in milliseconds (> 0, <= 1e6); a controller
+    /// moves the node budget to hold it (results then depend on the machine's speed).
+    TargetStepMs = 2,
+}
+
+/// How salience becomes a node's priority (values of `SlodFeedbackDesc::priority`).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SlodPriorityModel {
+    /// Salience times the node's projected radius in pixels (the default).
+    ScreenError = 0,
+    /// The BSWDF salience alone, as in the paper.
+    Salience = 1,
+}
+
+/// Settings of a cloth's feedback loop. Get one from `slod_default_feedback_desc`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SlodFeedbackDesc {
+    /// Set by `slod_default_feedback_desc`; do not change.
+    pub guard: u32,
+    /// A `SlodClothBudget` value.
+    pub budget_kind: u32,
+    /// The budget's value; its meaning and range depend on `budget_kind`.
+    pub budget_value: f64,
+    /// Evaluate every `interval` steps, 1..=100000 (the paper's k).
+    pub interval: u32,
+    /// Most refine/coarse operations begun per evaluation, 1..=1048576.
+    pub max_ops: u32,
+    /// Minimum priority gain for moving detail (finite, >= 0): keeps nodes from flickering.
+    pub hysteresis: f32,
+    /// Salience memory in seconds, in [0, 1e4] (0 turns it off).
+    pub memory_seconds: f32,
+    /// A `SlodPriorityModel` value.
+    pub priority: u32,
+    /// 1 splits the salience evaluation over the world's worker threads, 0 does not (ignored by
+    /// a world created with one worker thread).
+    pub parallel: u32,
+}
+
+/// The default cloth: the paper's swinging net (65×65 vertices 2 m wide, 1 kg, horizontal in
+/// the XZ plane around the origin), solver at 60 Hz with 16 substeps, starting at level 1.
+///
+/// Returns a value the host owns; change fields, then pass it to a creation function.
+#[unsafe(no_mangle)]
+pub extern "C" fn slod_default_cloth_desc() -> SlodClothDesc {
+    let s = net::default_body_settings();
+    SlodClothDesc {
+        guard: SLOD_DESC_GUARD,
+        columns: 65,
+        rows: 65,
+        spacing: 2.0 / 64.0,
+        total_mass: 1.0,
+        center: [0.0; 3],
+        axis_u: [1.0, 0.0, 0.0],
+        axis_v: [0.0, 0.0, 1.0],
+        solver: SlodSolverDesc {
+            dt: s.solver.dt,
+            substeps: s.solver.substeps,
+            iterations: s.solver.iterations,
+            gravity: s.solver.gravity.to_array(),
+            damping: s.solver.damping,
+            stretch_compliance: s.material.stretch_compliance,
+            blend_steps: s.blend_steps,
+        },
+        initial_level: 1,
+    }
+}
+
+/// The default feedback settings: 30% compression, evaluated every 5 steps, hysteresis 2,
+/// at most 32 operations per evaluation, 0.5 s salience memory, screen-error priority, serial.
+///
+/// Returns a value the host owns; change fields, then pass it to `slod_cloth_set_feedback`.
+#[unsafe(no_mangle)]
+pub extern "C" fn slod_default_feedback_desc() -> SlodFeedbackDesc {
+    let f = FeedbackSettings::default();
+    SlodFeedbackDesc {
+        guard: SLOD_DESC_GUARD,
+        budget_kind: SlodClothBudget::Compression as u32,
+        budget_value: 0.3,
+        interval: f.interval,
+        max_ops: f.max_ops as u32,
+        hysteresis: f.hysteresis,
+        memory_seconds: f.memory_seconds,
+        priority: SlodPriorityModel::ScreenError as u32,
+        parallel: 0,
+    }
+}
+
+/// Checks `lo <= v <= hi` with `v` finite, naming the argument.
+pub(crate) fn in_range(v: f32, lo: f32, hi: f32, name: &'static str) -> Result<(), FfiError> {
+    if v.is_finite() && v >= lo && v <= hi {
+        Ok(())
+    } else {
+        Err(FfiError::invalid(
+            name,
+            format!("{v} is not finite or outside [{lo}, {hi}]"),
+        ))
+    }
+}
+
+/// Checks a position: finite, every coordinate within `SLOD_MAX_COORDINATE`.
+pub(crate) fn position(p: [f32; 3], name: &'static str) -> Result<Vec3, FfiError> {
+    if p.iter()
+        .all(|c| c.is_finite() && c.abs() <= SLOD_MAX_COORDINATE)
+    {
+        Ok(Vec3::from(p))
+    } else {
+        Err(FfiError::invalid(
+            name,
+            format!("{p:?} is not finite or beyond ±{SLOD_MAX_COORDINATE}"),
+        ))
+    }
+}
+
+fn check_u32(v: u32, lo: u32, hi: u32, name: &'static str) -> Result<(), FfiError> {
+    if (lo..=hi).contains(&v) {
+        Ok(())
+    } else {
+        Err(FfiError::invalid(
+            name,
+            format!("{v} is outside [{lo}, {hi}]"),
+        ))
+    }
+}
+
+impl SlodSolverDesc {
+    fn to_settings(self) -> Result<TreeCutSettings, FfiError> {
+        in_range(self.dt, f32::MIN_POSITIVE, 1.0, "desc.solver.dt")?;
+        check_u32(self.substeps, 1, 1024, "desc.solver.substeps")?;
+        check_u32(self.iterations, 1, 1024, "desc.solver.iterations")?;
+        for g in self.gravity {
+            in_range(g, -1.0e4, 1.0e4, "desc.solver.gravity")?;
+        }
+        in_range(self.damping, 0.0, 1.0e4, "desc.solver.damping")?;
+        in_range(
+            self.stretch_compliance,
+            0.0,
+            1.0e6,
+            "desc.solver.stretch_compliance",
+        )?;
+        check_u32(self.blend_steps, 0, 1 << 16, "desc.solver.blend_steps")?;
+        Ok(TreeCutSettings {
+            solver: SolverSettings {
+                dt: self.dt,
+                substeps: self.substeps,
+                iterations: self.iterations,
+                gravity: Vec3::from(self.gravity),
+                damping: self.damping,
+            },
+            material: Material {
+                stretch_compliance: self.stretch_compliance,
+                ..Material::default()
+            },
+            blend_steps: self.blend_steps,
+            ..TreeCutSettings::default()
+        })
+    }
+}
+
+impl SlodClothDesc {
+    fn grid_spec(&self) -> Result<GridSpec, FfiError> {
+        check_u32(self.columns, 2, SLOD_MAX_CLOTH_VERTICES, "desc.columns")?;
+        check_u32(self.rows, 2, SLOD_MAX_CLOTH_VERTICES, "desc.rows")?;
+        if self.columns as u64 * self.rows as u64 > SLOD_MAX_CLOTH_VERTICES as u64 {
+            return Err(FfiError::invalid(
+                "desc.rows",
+                format!("columns × rows exceeds {SLOD_MAX_CLOTH_VERTICES} vertices"),
+            ));
+        }
+        in_range(self.spacing, f32::MIN_POSITIVE, 1.0e4, "desc.spacing")?;
+        in_range(self.total_mass, f32::MIN_POSITIVE, 1.0e9, "desc.total_mass")?;
+        let center = position(self.center, "desc.center")?;
+        let axis = |a: [f32; 3], name| {
+            let v = Vec3::from(a);
+            if v.is_finite() && v.length() > 1.0e-6 && v.length().is_finite() {
+                Ok(v.normalize())
+            } else {
+                Err(FfiError::invalid(name, "must be finite and non-zero"))
+            }
+        };
+        let u = axis(self.axis_u, "desc.axis_u")?;
+        let v = axis(self.axis_v, "desc.axis_v")?;
+        if u.cross(v).length() < 1.0e-3 {
+            return Err(FfiError::invalid("desc.axis_v", "parallel to axis_u"));
+        }
+        let (u, v) = (u * self.spacing, v * self.spacing);
+        let half = 0.5 * (self.columns - 1) as f32 * u + 0.5 * (self.rows - 1) as f32 * v;
+        Ok(GridSpec {
+            cols: self.columns,
+            rows: self.rows,
+            origin: center - half,
+            u,
+            v,
+            vertex_mass: self.total_mass / (self.columns as f32 * self.rows as f32),
+        })
+    }
+}
+
+/// The desc behind a pointer, guard checked.
+///
+/// # Safety
+/// `desc` NULL or valid for a read.
+unsafe fn read_desc(desc: *const SlodClothDesc) -> Result<SlodClothDesc, FfiError> {
+    // SAFETY: forwarded from the caller's contract.
+    let desc = *unsafe { arg(desc, "desc") }?;
+    check_guard(desc.guard, "desc")?;
+    Ok(desc)
+}
+
+/// A hierarchy or cloth error from creation, naming the argument at fault.
+fn build_error(e: ClothError) -> FfiError {
+    match e {
+        ClothError::Build(b) => {
+            let name = match b {
+                BuildError::Empty(_) | BuildError::BadGridSize { .. } => "vertex_count",
+                BuildError::NonFinitePosition(_) => "positions",
+                BuildError::InvalidMass { .. } | BuildError::MassCountMismatch { .. } => "masses",
+                BuildError::BadGridAxes => "desc.axis_u",
+                _ => "triangles",
+            };
+            FfiError::invalid(name, b)
+        }
+        other => FfiError::invalid("desc", other),
+    }
+}
+
+/// An error from an operation on a live cloth: state conflicts are `REFUSED`.
+pub(crate) fn cloth_error(e: ClothError) -> FfiError {
+    match e {
+        ClothError::NoCamera => {
+            FfiError::Refused("feedback needs a camera: call slod_world_set_camera first".into())
+        }
+        ClothError::Body(TreeCutError::VertexOutOfRange { vertex, count }) => FfiError::invalid(
+            "vertex",
+            format!("{vertex} is out of range ({count} vertices)"),
+        ),
+        other => FfiError::Refused(other.to_string()),
+    }
+}
+
+fn insert(world: &mut SlodWorld, cloth: AdaptiveCloth) -> SlodClothId {
+    world
+        .cloths
+        .insert(ClothEntry {
+            cloth,
+            vertices: Vec::new(),
+        })
+        .into()
+}
+
+/// Creates a grid cloth (a quadtree hierarchy over `columns × rows` vertices) and writes its id.
+///
+/// Ownership: the world owns the cloth; destroy it with `slod_cloth_destroy` or with the world.
+/// The desc is copied. Threads: mutates the world. Errors: `SLOD_RESULT_INVALID_ARGUMENT` names
+/// the bad desc field (`desc` for a missing guard); nothing is created.
+///
+/// # Safety
+/// `world` NULL or a live world; `desc` NULL or valid; `out_cloth` NULL or valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_cloth_create_grid(
+    world: *mut SlodWorld,
+    desc: *const SlodClothDesc,
+    out_cloth: *mut SlodClothId,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        // SAFETY: caller contract: NULL or a valid desc.
+        let desc = unsafe { read_desc(desc) }?;
+        let spec = desc.grid_spec()?;
+        let settings = desc.solver.to_settings()?;
+        if out_cloth.is_null() {
+            return Err(FfiError::Null("out_cloth"));
+        }
+        let cloth =
+            AdaptiveCloth::grid(&spec, desc.initial_level, settings).map_err(build_error)?;
+        let id = insert(world, cloth);
+        // SAFETY: checked non-NULL; valid for a write per the caller contract.
+        unsafe { write_out(out_cloth, id, "out_cloth") }
+    })
+}
+
+/// Creates a cloth from the host's own triangle mesh and writes its id.
+///
+/// `positions` holds `vertex_count` rest positions (float[3] each), `triangles` holds
+/// `triangle_count` index triples, `masses` is NULL (each vertex gets a third of its triangles'
+/// area times 1 kg/m²) or holds `vertex_count` masses (finite, > 0). The mesh must be
+/// connected and use every vertex. Uses `desc->solver` and `desc->initial_level`; the grid
+/// fields are ignored. Vertex indices are the host's: pins, reconstructed positions and
+/// `slod_cloth_vertex_count` follow them.
+///
+/// Ownership: the arrays are read during the call only (the host keeps them); the world owns the
+/// cloth. Threads: mutates the world. Errors: `SLOD_RESULT_INVALID_ARGUMENT` names the bad
+/// argument (`positions`, `triangles`, `masses`, `vertex_count`, a desc field); nothing is created.
+///
+/// # Safety
+/// `world` NULL or a live world; `desc` NULL or valid; `positions` valid for `vertex_count`
+/// reads, `triangles` for `triangle_count` reads, `masses` NULL or valid for `vertex_count`
+/// reads; `out_cloth` NULL or valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_cloth_create_mesh(
+    world: *mut SlodWorld,
+    desc: *const SlodClothDesc,
+    positions: *const [f32; 3],
+    vertex_count: usize,
+    triangles: *const [u32; 3],
+    triangle_count: usize,
+    masses: *const f32,
+    out_cloth: *mut SlodClothId,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        // SAFETY: caller contract: NULL or a valid desc.
+        let desc = unsafe { read_desc(desc) }?;
+        let settings = desc.solver.to_settings()?;
+        // Sizes first: a huge count is refused before its pointer is touched.
+        if vertex_count < 3 || vertex_count > SLOD_MAX_CLOTH_VERTICES as usize {
+            return Err(FfiError::invalid(
+                "vertex_count",
+                format!("{vertex_count} is outside [3, {SLOD_MAX_CLOTH_VERTICES}]"),
+            ));
+        }
+        if triangle_count == 0 || triangle_count > SLOD_MAX_CLOTH_TRIANGLES as usize {
+            return Err(FfiError::invalid(
+                "triangle_count",
+                format!("{triangle_count} is outside [1, {SLOD_MAX_CLOTH_TRIANGLES}]"),
+            ));
+        }
+        // SAFETY: caller contract: valid for `vertex_count` reads (NULL checked inside).
+        let positions = unsafe { slice(positions, vertex_count, "positions") }?;
+        // SAFETY: caller contract: valid for `triangle_count` reads (NULL checked inside).
+        let triangles = unsafe { slice(triangles, triangle_count, "triangles") }?;
+        let masses = if masses.is_null() {
+            None
+        } else {
+            // SAFETY: caller contract: a non-NULL `masses` is valid for `vertex_count` reads.
+            let m = unsafe { slice(masses, vertex_count, "masses") }?;
+            for &x in m {
+                in_range(x, f32::MIN_POSITIVE, 1.0e9, "masses")?;
+            }
+            Some(m)
+        };
+        if out_cloth.is_null() {
+            return Err(FfiError::Null("out_cloth"));
+        }
+        let mut points = Vec::with_capacity(vertex_count);
+        for &p in positions {
+            points.push(position(p, "positions")?);
+        }
+        let cloth = if desc.initial_level == 0 {
+            AdaptiveCloth::from_mesh(&points, triangles, masses, settings).map_err(build_error)?
+        } else {
+            let h = Hierarchy::from_mesh(&points, triangles, masses)
+                .map_err(|e| build_error(e.into()))?;
+            // The same orientation `from_mesh` uses: the area-weighted mean normal.
+            let mut normal = Vec3::ZERO;
+            for t in triangles {
+                let [a, b, c] = t.map(|i| points[i as usize]);
+                normal += (b - a).cross(c - a);
+            }
+            let cut = treecut::Cut::uniform(&h, desc.initial_level);
+            AdaptiveCloth::new(h, cut, settings, normal).map_err(build_error)?
+        };
+        let id = insert(world, cloth);
+        // SAFETY: checked non-NULL; valid for a write per the caller contract.
+        unsafe { write_out(out_cloth, id, "out_cloth") }
+    })
+}
+
+/// Destroys a cloth; its id (and every copy) is stale afterwards.
+///
+/// Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID` if `cloth` is not a live cloth of
+/// this world (nothing happens).
+///
+/// # Safety
+/// `world` NULL or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_cloth_destroy(
+    world: *mut SlodWorld,
+    cloth: SlodClothId,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        world.cloths.remove(RawId::from(cloth), "cloth")?;
+        Ok(())
+    })
+}
+
+/// The live cloth behind an id.
+pub(crate) fn cloth_mut(
+    world: &mut SlodWorld,
+    id: SlodClothId,
+) -> Result<&mut ClothEntry, FfiError> {
+    world.cloths.get_mut(RawId::from(id), "cloth")
+}
+
+/// Advances a cloth by one step of `desc.solver.dt` seconds.
+///
+/// The cloth first takes the world's current camera and light. With feedback on, every
+/// `interval` steps the step also measures salience and begins the refines and coarses the
+/// evaluator chose; transitions whose blend is done end inside the step. Threads: mutates the
+/// world; with feedback `parallel` the salience stage uses the world's worker threads. Errors:
+/// `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_REFUSED` if the feedback stage refused its inputs
+/// (nothing stepped).
+///
+/// # Safety
+/// `world` NULL or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_cloth_step(world: *mut SlodWorld, cloth: SlodClothId) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        let (camera, light) = (world.camera, world.light);
+        let pool = world.pool.as_ref();
+        let entry = world.cloths.get_mut(RawId::from(cloth), "cloth")?;
+        if let Some(c) = camera {
+            entry.cloth.set_camera(c.cloth);
+        }
+        entry.cloth.set_light(light).map_err(cloth_error)?;
+        let c = &mut entry.cloth;
+        SlodWorld::run(pool, || c.step()).map_err(cloth_error)
+    })
+}
+
+fn check_node(entry: &ClothEntry, node: u32) -> Result<NodeId, FfiError> {
+    let len = entry.cloth.hierarchy().len();
+    if (node as usize) < len {
+        Ok(NodeId(node))
+    } else {
+        Err(FfiError::invalid(
+            "node",
+            format!("{node} is not a node of this cloth ({len} nodes)"),
+        ))
+    }
+}
+
+/// Begins refining hierarchy node `node` (replacing it by its children over `blend_steps` steps).
+///
+/// Node indices come from `slod_cloth_active_nodes` / `slod_cloth_node_ids` /
+/// `slod_cloth_node_info`. Threads: mutates the world. Errors: `SLOD_RESULT_INVALID_ARGUMENT` for
+/// an index outside the hierarchy; `SLOD_RESULT_REFUSED` (nothing changed) if the node is not on
+/// the cut, is a leaf, or is locked by a transition in flight.
+///
+/// # Safety
+/// `world` NULL or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_cloth_refine(
+    world: *mut SlodWorld,
+    cloth: SlodClothId,
+    node: u32,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        let entry = cloth_mut(world, cloth)?;
+        let n = check_node(entry, node)?;
+        entry.cloth.refine(n).map_err(cloth_error)
+    })
+}
+
+/// Begins coarsening hierarchy node `node` (replacing its children, all on the cut, by it).
+///
+/// Threads: mutates the world. Errors: `SLOD_RESULT_INVALID_ARGUMENT` for an index outside the
+/// hierarchy; `SLOD_RESULT_REFUSED` (nothing changed) unless all its children are on the cut and
+/// neither they nor it are locked.
+///
+/// # Safety
+/// `world` NULL or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_cloth_coarse(
+    world: *mut SlodWorld,
+    cloth: SlodClothId,
+    node: u32,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        let entry = cloth_mut(world, cloth)?;
+        let n = check_node(entry, node)?;
+        entry.cloth.coarse(n).map_err(cloth_error)
+    })
+}
+
+/// Pins finest vertex `vertex` at (`x`, `y`, `z`), or moves its pin there.
+///
+/// The node covering the vertex becomes a kinematic anchor reaching the new position over the
+/// next step; pins follow their vertex through refines and coarses. Threads: mutates the world.
+/// Errors: `SLOD_RESULT_INVALID_ARGUMENT` for a vertex out of range or a coordinate not finite or
+/// beyond `SLOD_MAX_COORDINATE`.
+///
+/// # Safety
+/// `world` NULL or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_cloth_pin_vertex(
+    world: *mut SlodWorld,
+    cloth: SlodClothId,
+    vertex: u32,
+    x: f32,
+    y: f32,
+    z: f32,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        let entry = cloth_mut(world, cloth)?;
+        let anchor = position([x, y, z], "anchor (x, y, z)")?;
+        entry
+            .cloth
+            .body_mut()
+            .pin_vertex(vertex, anchor)
+            .map_err(|e| cloth_error(e.into()))
+    })
+}
+
+/// Releases the pin of finest vertex `vertex` (no effect if it is not pinned).
+///
+/// Threads: mutates the world. Errors: `SLOD_RESULT_INVALID_ARGUMENT` for a vertex out of range.
+///
+/// # Safety
+/// `world` NULL or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_cloth_unpin_vertex(
+    world: *mut SlodWorld,
+    cloth: SlodClothId,
+    vertex: u32,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        let entry = cloth_mut(world, cloth)?;
+        entry
+            .cloth
+            .body_mut()
+            .unpin_vertex(vertex)
+            .map_err(|e| cloth_error(e.into()))
+    })
+}
+
+impl SlodFeedbackDesc {
+    fn to_settings(self, parallel_allowed: bool) -> Result<FeedbackSettings, FfiError> {
+        check_guard(self.guard, "desc")?;
+        let v = self.budget_value;
+        let budget = match self.budget_kind {
+            0 => {
+                if !(v.is_finite() && v >= 1.0 && v <= u32::MAX as f64 && v.fract() == 0.0) {
+                    return Err(FfiError::invalid(
+                        "desc.budget_value",
+                        format!("{v} is not a whole node count in [1, 2^32)"),
+                    ));
+                }
+                ClothBudget::Nodes(v as usize)
+            }
+            1 => {
+                if !(v.is_finite() && v > 0.0 && v <= 1.0) {
+                    return Err(FfiError::invalid(
+                        "desc.budget_value",
+                        format!("compression {v} is outside (0, 1]"),
+                    ));
+                }
+                ClothBudget::Compression(v as f32)
+            }
+            2 => {
+                if !(v.is_finite() && v > 0.0 && v <= 1.0e6) {
+                    return Err(FfiError::invalid(
+                        "desc.budget_value",
+                        format!("target {v} ms is outside (0, 1e6]"),
+                    ));
+                }
+                ClothBudget::TargetStepMs(v as f32)
+            }
+            k => {
+                return Err(FfiError::invalid(
+                    "desc.budget_kind",
+                    format!("{k} is not a SlodClothBudget value"),
+                ));
+            }
+        };
+        check_u32(self.interval, 1, 100_000, "desc.interval")?;
+        check_u32(self.max_ops, 1, 1 << 20, "desc.max_ops")?;
+        in_range(self.hysteresis, 0.0, f32::MAX, "desc.hysteresis")?;
+        in_range(self.memory_seconds, 0.0, 1.0e4, "desc.memory_seconds")?;
+        let priority = match self.priority {
+            0 => PriorityModel::ScreenError,
+            1 => PriorityModel::Salience,
+            p => {
+                return Err(FfiError::invalid(
+                    "desc.priority",
+                    format!("{p} is not a SlodPriorityModel value"),
+                ));
+            }
+        };
+        check_u32(self.parallel, 0, 1, "desc.parallel")?;
+        let settings = FeedbackSettings {
+            interval: self.interval,
+            budget,
+            hysteresis: self.hysteresis,
+            max_ops: self.max_ops as usize,
+            priority,
+            memory_seconds: self.memory_seconds,
+            parallel: self.parallel == 1 && parallel_allowed,
+            ..FeedbackSettings::default()
+        };
+        settings
+            .validate()
+            .map_err(|e| FfiError::invalid("desc", e))?;
+        Ok(settings)
+    }
+}
+
+/// Turns a cloth's feedback loop on (or changes its settings).
+///
+/// From the next step on the cloth measures what the world's camera sees every `interval` steps
+/// and moves its cut under the budget. Threads: mutates the world. Errors:
+/// `SLOD_RESULT_INVALID_ARGUMENT` names the bad desc field; `SLOD_RESULT_REFUSED` if the world
+/// has no camera yet (call `slod_world_set_camera` first). Nothing changes on error.
+///
+/// # Safety
+/// `world` NULL or a live world; `desc` NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_cloth_set_feedback(
+    world: *mut SlodWorld,
+    cloth: SlodClothId,
+    desc: *const SlodFeedbackDesc,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        // SAFETY: caller contract: NULL or a valid desc.
+        let desc = *unsafe { arg(desc, "desc") }?;
+        let parallel = world.parallel_allowed();
+        let camera = world.camera;
+        let entry = cloth_mut(world, cloth)?;
+        let settings = desc.to_settings(parallel)?;
+        let camera = camera.ok_or_else(|| cloth_error(ClothError::NoCamera))?;
+        entry.cloth.set_camera(camera.cloth);
+        entry
+            .cloth
+            .set_feedback(Some(settings))
+            .map_err(cloth_error)
+    })
+}
+
+/// Turns a cloth's feedback loop off; the cut stays where it is (no effect if it was off).
+///
+/// Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`.
+///
+/// # Safety
+/// `world` NULL or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_cloth_disable_feedback(
+    world: *mut SlodWorld,
+    cloth: SlodClothId,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        cloth_mut(world, cloth)?
+            .cloth
+            .set_feedback(None)
+            .map_err(cloth_error)
+    })
+}

@@ -1,0 +1,350 @@
+//! Crowds over the C ABI: characters of one rig animated together under one LOD mode, advanced
+//! by the host's frame time and seen by the world's camera.
+
+use animlod::{Crowd, CrowdError, LodMode};
+
+use super::arena::RawId;
+use super::boundary::{arg, arg_mut, boundary, write_out};
+use super::cloth::in_range;
+use super::ids::{SlodCrowdId, SlodRigId};
+use super::result::{FfiError, SlodResult};
+use super::rig::rig_ref;
+use super::world::{SLOD_DESC_GUARD, SlodWorld, check_guard};
+
+/// How a crowd chooses each character's detail (values of `SlodLodDesc::mode`).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SlodLodMode {
+    /// Every animated bone interpolates every frame.
+    Off = 0,
+    /// Camera ratio from distance: full detail nearer than `range_min`, none beyond `range_max`,
+    /// linear between (the thesis' range).
+    Range = 1,
+    /// Camera ratio from the projected radius of the character's bounds: full detail at
+    /// `full_detail_px` and above, frozen below `freeze_below_px`.
+    PixelSize = 2,
+    /// A crowd-wide budget of `bone_updates_per_frame` bone interpolations per frame, spent where
+    /// held bones have built up the most on-screen error.
+    Budget = 3,
+    /// Hold a bone only while its estimated on-screen drift stays under `max_error_px` pixels.
+    ErrorBound = 4,
+    /// The same camera ratio `ratio` (in [0, 1]) for every character.
+    Ratio = 5,
+}
+
+/// A crowd's LOD mode and its parameters. Get one from `slod_default_lod_desc`; only the
+/// fields of the chosen `mode` are read (but all must be valid numbers for it).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SlodLodDesc {
+    /// Set by `slod_default_lod_desc`; do not change.
+    pub guard: u32,
+    /// A `SlodLodMode` value.
+    pub mode: u32,
+    /// `SLOD_LOD_MODE_RANGE`: distance (world units) below which a character is at full detail
+    /// (finite, >= 0).
+    pub range_min: f32,
+    /// `SLOD_LOD_MODE_RANGE`: distance beyond which no bone interpolates (finite, > range_min).
+    pub range_max: f32,
+    /// `SLOD_LOD_MODE_PIXEL_SIZE`: projected radius (pixels) of full detail (finite, > 0).
+    pub full_detail_px: f32,
+    /// `SLOD_LOD_MODE_PIXEL_SIZE`: projected radius below which a character freezes
+    /// (finite, 0 <= value < full_detail_px).
+    pub freeze_below_px: f32,
+    /// `SLOD_LOD_MODE_BUDGET`: bone interpolations per frame over the whole crowd.
+    pub bone_updates_per_frame: u32,
+    /// `SLOD_LOD_MODE_ERROR_BOUND`: largest on-screen drift of a held bone, pixels (finite, > 0).
+    pub max_error_px: f32,
+    /// `SLOD_LOD_MODE_RATIO`: the camera ratio of every character, in [0, 1].
+    pub ratio: f32,
+}
+
+/// How to build a crowd. Get one from `slod_default_crowd_desc`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SlodCrowdDesc {
+    /// Set by `slod_default_crowd_desc`; do not change.
+    pub guard: u32,
+    /// The initial LOD mode (change it later with `slod_crowd_set_lod`).
+    pub lod: SlodLodDesc,
+}
+
+/// What one `slod_crowd_advance` did, summed over the crowd.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SlodCrowdStats {
+    /// Animated bones that interpolated their channels this frame.
+    pub bones_interpolated: u64,
+    /// Animated bones that held their last local transform (the work LOD saved).
+    pub bones_held: u64,
+    /// Bones with no animated channel in the current clip (never sampled).
+    pub bones_constant: u64,
+    /// Model-space matrices recomputed (subtrees that held entirely are skipped).
+    pub bones_concatenated: u64,
+    /// Characters advanced.
+    pub characters: u32,
+    /// Characters of which nothing interpolated (out of range, invisible or without budget).
+    pub characters_frozen: u32,
+}
+
+/// The default LOD: `SLOD_LOD_MODE_OFF`, with the other modes' fields preset (range 5–50,
+/// pixel size 200/1 px, 5000 bone updates per frame, 0.5 px error bound, ratio 1) so that setting
+/// `mode` alone gives a working configuration.
+///
+/// Returns a value the host owns.
+#[unsafe(no_mangle)]
+pub extern "C" fn slod_default_lod_desc() -> SlodLodDesc {
+    SlodLodDesc {
+        guard: SLOD_DESC_GUARD,
+        mode: SlodLodMode::Off as u32,
+        range_min: 5.0,
+        range_max: 50.0,
+        full_detail_px: 200.0,
+        freeze_below_px: 1.0,
+        bone_updates_per_frame: 5000,
+        max_error_px: 0.5,
+        ratio: 1.0,
+    }
+}
+
+/// The default crowd settings (LOD from `slod_default_lod_desc`). Returns a value the host owns.
+#[unsafe(no_mangle)]
+pub extern "C" fn slod_default_crowd_desc() -> SlodCrowdDesc {
+    SlodCrowdDesc {
+        guard: SLOD_DESC_GUARD,
+        lod: slod_default_lod_desc(),
+    }
+}
+
+impl SlodLodDesc {
+    /// The LOD mode, or an error naming the bad field (`prefix` names the desc, e.g. `lod`).
+    fn to_mode(self, guard_name: &'static str) -> Result<LodMode, FfiError> {
+        check_guard(self.guard, guard_name)?;
+        let mode = match self.mode {
+            0 => LodMode::Off,
+            1 => {
+                in_range(self.range_min, 0.0, f32::MAX, "lod.range_min")?;
+                in_range(self.range_max, 0.0, f32::MAX, "lod.range_max")?;
+                if self.range_max <= self.range_min {
+                    return Err(FfiError::invalid(
+                        "lod.range_max",
+                        "must be greater than range_min",
+                    ));
+                }
+                LodMode::Range {
+                    min: self.range_min,
+                    max: self.range_max,
+                }
+            }
+            2 => {
+                in_range(
+                    self.full_detail_px,
+                    f32::MIN_POSITIVE,
+                    f32::MAX,
+                    "lod.full_detail_px",
+                )?;
+                in_range(self.freeze_below_px, 0.0, f32::MAX, "lod.freeze_below_px")?;
+                if self.freeze_below_px >= self.full_detail_px {
+                    return Err(FfiError::invalid(
+                        "lod.freeze_below_px",
+                        "must be less than full_detail_px",
+                    ));
+                }
+                LodMode::PixelSize {
+                    full_detail_px: self.full_detail_px,
+                    freeze_below_px: self.freeze_below_px,
+                }
+            }
+            3 => LodMode::Budget {
+                bone_updates_per_frame: self.bone_updates_per_frame,
+            },
+            4 => {
+                in_range(
+                    self.max_error_px,
+                    f32::MIN_POSITIVE,
+                    f32::MAX,
+                    "lod.max_error_px",
+                )?;
+                LodMode::ErrorBound {
+                    max_error_px: self.max_error_px,
+                }
+            }
+            5 => {
+                in_range(self.ratio, 0.0, 1.0, "lod.ratio")?;
+                LodMode::Ratio(self.ratio)
+            }
+            m => {
+                return Err(FfiError::invalid(
+                    "lod.mode",
+                    format!("{m} is not a SlodLodMode value"),
+                ));
+            }
+        };
+        mode.validate().map_err(crowd_error)?;
+        Ok(mode)
+    }
+}
+
+/// A crowd error as the C layer reports it.
+pub(crate) fn crowd_error(e: CrowdError) -> FfiError {
+    match e {
+        CrowdError::StaleCharacter(_) => FfiError::StaleId("character"),
+        CrowdError::UnknownClip(_) => FfiError::invalid("clip", e),
+        CrowdError::UnknownSkin(_) => FfiError::invalid("skin", e),
+        CrowdError::InvalidArgument { what, reason } => FfiError::invalid(what, reason),
+        CrowdError::BufferTooSmall { needed, given } => FfiError::BufferTooSmall {
+            arg: "out",
+            cap: given,
+            needed,
+        },
+        other => FfiError::Refused(other.to_string()),
+    }
+}
+
+/// Creates an empty crowd animating characters of `rig` and writes its id.
+///
+/// Ownership: the world owns the crowd; the crowd holds its own reference to the rig (destroying
+/// the rig later does not affect it). The desc is copied. Threads: mutates the world. Errors:
+/// `SLOD_RESULT_STALE_ID` for `rig`, `SLOD_RESULT_INVALID_ARGUMENT` naming the bad LOD field.
+///
+/// # Safety
+/// `world` NULL or a live world; `desc` NULL or valid; `out_crowd` NULL or valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_crowd_create(
+    world: *mut SlodWorld,
+    rig: SlodRigId,
+    desc: *const SlodCrowdDesc,
+    out_crowd: *mut SlodCrowdId,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        // SAFETY: caller contract: NULL or a valid desc.
+        let desc = *unsafe { arg(desc, "desc") }?;
+        check_guard(desc.guard, "desc")?;
+        let lod = desc.lod.to_mode("desc.lod")?;
+        let rig = rig_ref(world, rig)?.clone();
+        if out_crowd.is_null() {
+            return Err(FfiError::Null("out_crowd"));
+        }
+        let mut crowd = Crowd::new(rig);
+        crowd.set_lod(lod).map_err(crowd_error)?;
+        let id: SlodCrowdId = world.crowds.insert(crowd).into();
+        // SAFETY: checked non-NULL; valid for a write per the caller contract.
+        unsafe { write_out(out_crowd, id, "out_crowd") }
+    })
+}
+
+/// Destroys a crowd and every character in it (their ids go stale).
+///
+/// Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`.
+///
+/// # Safety
+/// `world` NULL or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_crowd_destroy(
+    world: *mut SlodWorld,
+    crowd: SlodCrowdId,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        let raw = RawId::from(crowd);
+        world.crowds.remove(raw, "crowd")?;
+        world.characters.remove_where(|(c, _)| *c == raw);
+        Ok(())
+    })
+}
+
+/// The live crowd behind an id.
+pub(crate) fn crowd_mut(world: &mut SlodWorld, id: SlodCrowdId) -> Result<&mut Crowd, FfiError> {
+    world.crowds.get_mut(RawId::from(id), "crowd")
+}
+
+/// Changes a crowd's LOD mode from the next advance on.
+///
+/// Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+/// naming the bad field (the mode stays as it was).
+///
+/// # Safety
+/// `world` NULL or a live world; `lod` NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_crowd_set_lod(
+    world: *mut SlodWorld,
+    crowd: SlodCrowdId,
+    lod: *const SlodLodDesc,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        // SAFETY: caller contract: NULL or valid.
+        let lod = *unsafe { arg(lod, "lod") }?;
+        let c = crowd_mut(world, crowd)?;
+        let mode = lod.to_mode("lod")?;
+        c.set_lod(mode).map_err(crowd_error)
+    })
+}
+
+/// Advances every character of a crowd by `dt` seconds and updates their poses under the
+/// crowd's LOD mode, seen by the world's camera; writes what the frame did to `*out_stats`.
+///
+/// Until the world has a camera, crowds see from the origin with no view direction (everything
+/// visible, distances from the origin). Threads: mutates the world. Errors:
+/// `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_INVALID_ARGUMENT` for `dt` not finite or outside
+/// [0, 3600] (nothing advanced).
+///
+/// # Safety
+/// `world` NULL or a live world; `out_stats` NULL or valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_crowd_advance(
+    world: *mut SlodWorld,
+    crowd: SlodCrowdId,
+    dt: f32,
+    out_stats: *mut SlodCrowdStats,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        let camera = world.camera;
+        let c = crowd_mut(world, crowd)?;
+        in_range(dt, 0.0, 3600.0, "dt")?;
+        if out_stats.is_null() {
+            return Err(FfiError::Null("out_stats"));
+        }
+        if let Some(cam) = camera {
+            c.set_camera(cam.crowd).map_err(crowd_error)?;
+        }
+        let s = c.advance(dt).map_err(crowd_error)?;
+        let stats = SlodCrowdStats {
+            bones_interpolated: s.bones_interpolated,
+            bones_held: s.bones_held,
+            bones_constant: s.bones_constant,
+            bones_concatenated: s.bones_concatenated,
+            characters: s.characters,
+            characters_frozen: s.characters_frozen,
+        };
+        // SAFETY: checked non-NULL; valid for a write per the caller contract.
+        unsafe { write_out(out_stats, stats, "out_stats") }
+    })
+}
+
+/// Writes the number of live characters of a crowd to `*out_count`.
+///
+/// Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+///
+/// # Safety
+/// `world` NULL or a live world; `out_count` NULL or valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_crowd_character_count(
+    world: *const SlodWorld,
+    crowd: SlodCrowdId,
+    out_count: *mut usize,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world.
+        let world = unsafe { arg(world, "world") }?;
+        let c = world.crowds.get(RawId::from(crowd), "crowd")?;
+        // SAFETY: caller contract: NULL or valid for a write.
+        unsafe { write_out(out_count, c.len(), "out_count") }
+    })
+}
