@@ -482,6 +482,11 @@ typedef struct SlodFeedbackDesc {
    */
   float memory_seconds;
   /**
+   * Weight of deformation (link strain) next to motion in the salience, in [0, 1e6]
+   * (0 turns it off; default 20: a 5% stretch weighs like fully salient motion).
+   */
+  float deformation_weight;
+  /**
    * A `SlodPriorityModel` value.
    */
   uint32_t priority;

@@ -44,7 +44,7 @@ fn bench(c: &mut Criterion) {
     for compression in [1.0, 0.3] {
         let mut cl = cloth(&config, Some(compression));
         g.bench_function(format!("evaluate/{}", (compression * 100.0) as u32), |b| {
-            b.iter(|| cl.evaluate().unwrap())
+            b.iter(|| cl.evaluate().unwrap());
         });
     }
     g.finish();

@@ -116,6 +116,9 @@ pub struct SlodFeedbackDesc {
     pub hysteresis: f32,
     /// Salience memory in seconds, in [0, 1e4] (0 turns it off).
     pub memory_seconds: f32,
+    /// Weight of deformation (link strain) next to motion in the salience, in [0, 1e6]
+    /// (0 turns it off; default 20: a 5% stretch weighs like fully salient motion).
+    pub deformation_weight: f32,
     /// A `SlodPriorityModel` value.
     pub priority: u32,
     /// 1 splits the salience evaluation over the world's worker threads, 0 does not (ignored by
@@ -167,6 +170,7 @@ pub extern "C" fn slod_default_feedback_desc() -> SlodFeedbackDesc {
         max_ops: f.max_ops as u32,
         hysteresis: f.hysteresis,
         memory_seconds: f.memory_seconds,
+        deformation_weight: f.deformation_weight,
         priority: SlodPriorityModel::ScreenError as u32,
         parallel: 0,
     }
@@ -667,6 +671,12 @@ impl SlodFeedbackDesc {
         check_u32(self.max_ops, 1, 1 << 20, "desc.max_ops")?;
         in_range(self.hysteresis, 0.0, f32::MAX, "desc.hysteresis")?;
         in_range(self.memory_seconds, 0.0, 1.0e4, "desc.memory_seconds")?;
+        in_range(
+            self.deformation_weight,
+            0.0,
+            1.0e6,
+            "desc.deformation_weight",
+        )?;
         let priority = match self.priority {
             0 => PriorityModel::ScreenError,
             1 => PriorityModel::Salience,
@@ -685,6 +695,7 @@ impl SlodFeedbackDesc {
             max_ops: self.max_ops as usize,
             priority,
             memory_seconds: self.memory_seconds,
+            deformation_weight: self.deformation_weight,
             parallel: self.parallel == 1 && parallel_allowed,
             ..FeedbackSettings::default()
         };

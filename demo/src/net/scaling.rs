@@ -17,7 +17,7 @@ use serde::Serialize;
 use slod::cloth::net::NetConfig;
 use slod::cloth::{AdaptiveCloth, ClothBudget, FeedbackSettings};
 use softbody::{GridCloth, SoftBody, SolverSettings, TreeCutSoftBody};
-use treecut::{Cut, Hierarchy, NodeId};
+use treecut::{Cut, Hierarchy};
 
 use crate::error::DemoError;
 use crate::progress::Progress;
@@ -429,6 +429,7 @@ impl Figure5 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use treecut::NodeId;
 
     #[test]
     fn fit_recovers_a_line() {
