@@ -924,8 +924,9 @@ SlodResult slod_world_set_light(struct SlodWorld *world, const struct SlodLight 
 struct SlodClothDesc slod_default_cloth_desc(void);
 
 /**
- * The default feedback settings: 30% compression, evaluated every 5 steps, hysteresis 2,
- * at most 32 operations per evaluation, 0.5 s salience memory, screen-error priority, serial.
+ * The default feedback settings (the Rust defaults): 30% compression, evaluated every 5 steps,
+ * hysteresis 6, at most 64 operations per evaluation, 0.5 s salience memory, deformation weight
+ * 20, screen-error priority, serial.
  *
  * Returns a value the host owns; change fields, then pass it to `slod_cloth_set_feedback`.
  */

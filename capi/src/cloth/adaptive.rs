@@ -61,6 +61,9 @@ pub struct AdaptiveCloth {
     last_op: Vec<(u64, u8)>,
     ops: Vec<Op>,
     stats: ClothStats,
+    /// Wall time and count of the steps since the controller's last update.
+    interval_seconds: f64,
+    interval_steps: u32,
 }
 
 const OP_REFINE: u8 = 1;
@@ -91,6 +94,8 @@ impl AdaptiveCloth {
             last_op: vec![(0, 0); len],
             ops: Vec::new(),
             stats: ClothStats::default(),
+            interval_seconds: 0.0,
+            interval_steps: 0,
         })
     }
 
@@ -242,6 +247,19 @@ impl AdaptiveCloth {
             .as_ref()
             .is_some_and(|f| self.stats.steps % f.settings.interval as u64 == 0);
         if due {
+            // The controller sees the mean step of the last interval, evaluation included:
+            // per-step times swing with the evaluation every `interval` steps, which would
+            // otherwise read as load changes.
+            if self.interval_steps > 0
+                && let Some(c) = self.feedback.as_mut().and_then(|f| f.controller.as_mut())
+            {
+                c.update(
+                    self.interval_seconds / self.interval_steps as f64,
+                    self.body.particle_count(),
+                );
+            }
+            self.interval_seconds = 0.0;
+            self.interval_steps = 0;
             let t = Instant::now();
             self.evaluate()?;
             eval_seconds = Some(t.elapsed().as_secs_f64());
@@ -253,9 +271,8 @@ impl AdaptiveCloth {
         if let Some(e) = eval_seconds {
             self.stats.last_eval_seconds = e;
         }
-        if let Some(c) = self.feedback.as_mut().and_then(|f| f.controller.as_mut()) {
-            c.update(seconds, self.body.particle_count());
-        }
+        self.interval_seconds += seconds;
+        self.interval_steps += 1;
         Ok(())
     }
 

@@ -18,6 +18,10 @@ pub struct ControllerSettings {
     pub gain: f32,
     /// Largest relative change of the budget per update.
     pub max_change: f32,
+    /// Relative distance between estimate and budget below which the budget stays (≥ 0).
+    /// Timer noise then does not move the budget, and every budget move costs refines or
+    /// merges that the hysteresis cannot filter (a shrinking budget forces merges).
+    pub deadband: f32,
 }
 
 impl Default for ControllerSettings {
@@ -26,6 +30,7 @@ impl Default for ControllerSettings {
             smoothing: 0.3,
             gain: 0.5,
             max_change: 0.25,
+            deadband: 0.03,
         }
     }
 }
@@ -84,6 +89,9 @@ impl TimeController {
         };
         self.smoothed = Some(t);
         let estimate = active_nodes as f64 * self.target_seconds / t;
+        if (estimate - self.budget).abs() <= self.settings.deadband as f64 * self.budget {
+            return self.budget();
+        }
         let step = self.settings.gain as f64 * (estimate - self.budget);
         let limit = self.settings.max_change as f64 * self.budget.max(1.0);
         self.budget = (self.budget + step.clamp(-limit, limit))

@@ -144,10 +144,17 @@ impl FeedbackSettings {
         self.params.validate()?;
         let c = self.controller;
         let unit = |x: f32| x > 0.0 && x <= 1.0;
-        let ok =
-            unit(c.smoothing) && unit(c.gain) && c.max_change > 0.0 && c.max_change.is_finite();
+        let ok = unit(c.smoothing)
+            && unit(c.gain)
+            && c.max_change > 0.0
+            && c.max_change.is_finite()
+            && c.deadband >= 0.0
+            && c.deadband < 1.0;
         if !ok {
-            return bad("controller", "smoothing and gain in (0, 1], max_change > 0");
+            return bad(
+                "controller",
+                "smoothing and gain in (0, 1], max_change > 0, deadband in [0, 1)",
+            );
         }
         Ok(())
     }

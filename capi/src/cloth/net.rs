@@ -202,6 +202,49 @@ pub struct NetRun {
     pub undone_operations: u64,
     /// Snapshots at the configured steps.
     pub snapshots: Vec<NetSnapshot>,
+    /// Wall time of every step in milliseconds, evaluation included.
+    pub step_ms: Vec<f32>,
+}
+
+/// How a run held a target time per step (see [`NetRun::settling`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settling {
+    /// The first step from which the mean time per evaluation interval stays within ±10% of
+    /// the target to the end of the run (None: it never settles).
+    pub settled_at: Option<u32>,
+    /// Mean ms per step from `settled_at` on (or over the second half without settling).
+    pub mean_ms_after: f64,
+}
+
+impl NetRun {
+    /// How the run's step times held `target_ms`, in windows of `window` steps (the feedback
+    /// interval: per-step times swing with the evaluation inside each interval).
+    pub fn settling(&self, target_ms: f32, window: usize) -> Settling {
+        let window = window.max(1);
+        let means: Vec<f64> = self
+            .step_ms
+            .chunks(window)
+            .map(|c| c.iter().map(|&x| x as f64).sum::<f64>() / c.len() as f64)
+            .collect();
+        let ok = |m: f64| (m - target_ms as f64).abs() <= 0.1 * target_ms as f64;
+        let first_ok_window = means
+            .iter()
+            .rposition(|&m| !ok(m))
+            .map_or(0, |last_bad| last_bad + 1);
+        let settled_at =
+            (first_ok_window < means.len()).then_some((first_ok_window * window) as u32);
+        let from = settled_at.map_or(self.step_ms.len() / 2, |s| s as usize);
+        let tail = &self.step_ms[from.min(self.step_ms.len())..];
+        let mean_ms_after = if tail.is_empty() {
+            0.0
+        } else {
+            tail.iter().map(|&x| x as f64).sum::<f64>() / tail.len() as f64
+        };
+        Settling {
+            settled_at,
+            mean_ms_after,
+        }
+    }
 }
 
 /// All runs of one configuration.
@@ -370,11 +413,14 @@ fn simulate(
     let (mut eval_seconds, mut evals) = (0f64, 0u64);
     let (mut sum_sq, mut max_d, mut max_step) = (0f64, 0f64, 0u32);
     let mut snapshots = Vec::new();
+    let mut step_ms = Vec::with_capacity(config.steps as usize);
     for step in 0..config.steps {
         let evaluations = cloth.stats().evaluations;
         let t = Instant::now();
         cloth.step()?;
-        seconds += t.elapsed().as_secs_f64();
+        let dt = t.elapsed().as_secs_f64();
+        seconds += dt;
+        step_ms.push((dt * 1e3) as f32);
         if cloth.stats().evaluations > evaluations {
             eval_seconds += cloth.stats().last_eval_seconds;
             evals += 1;
@@ -439,6 +485,7 @@ fn simulate(
         operations: stats.refines + stats.coarses,
         undone_operations: stats.undone_ops,
         snapshots,
+        step_ms,
     })
 }
 

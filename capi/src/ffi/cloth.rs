@@ -155,8 +155,9 @@ pub extern "C" fn slod_default_cloth_desc() -> SlodClothDesc {
     }
 }
 
-/// The default feedback settings: 30% compression, evaluated every 5 steps, hysteresis 2,
-/// at most 32 operations per evaluation, 0.5 s salience memory, screen-error priority, serial.
+/// The default feedback settings (the Rust defaults): 30% compression, evaluated every 5 steps,
+/// hysteresis 6, at most 64 operations per evaluation, 0.5 s salience memory, deformation weight
+/// 20, screen-error priority, serial.
 ///
 /// Returns a value the host owns; change fields, then pass it to `slod_cloth_set_feedback`.
 #[unsafe(no_mangle)]

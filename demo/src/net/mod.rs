@@ -199,6 +199,12 @@ pub(crate) struct RunReport {
     pub(crate) operations: u64,
     /// Operations that undid one on the same node soon after.
     pub(crate) undone_operations: u64,
+    /// Time-budget run only: the first step from which the mean step time of every feedback
+    /// interval stays within ±10% of the target (null if it never does, or for other runs).
+    pub(crate) settled_after_steps: Option<u32>,
+    /// Time-budget run only: mean ms per step from `settled_after_steps` on (over the second
+    /// half of the run if it never settles).
+    pub(crate) ms_per_step_settled: Option<f64>,
 }
 
 /// One line of Table 2: ours, the paper's or a documented peer's.
@@ -323,7 +329,11 @@ pub(crate) fn run(plan: &NetPlan, progress: Progress) -> Result<NetOutcome, Demo
 
     let section = NetSection {
         config: config_report(plan, &config, &report, target, target_source),
-        runs: report.runs.iter().map(|r| run_report(r, &report)).collect(),
+        runs: report
+            .runs
+            .iter()
+            .map(|r| run_report(r, &report, config.feedback.interval))
+            .collect(),
         table2: table2(&report, &figure5, bullet_like, config.size),
         table1,
         figure5,
@@ -373,12 +383,16 @@ fn config_report(
     }
 }
 
-fn run_report(r: &NetRun, report: &NetReport) -> RunReport {
+fn run_report(r: &NetRun, report: &NetReport, interval: u32) -> RunReport {
     let (kind, compression, target_ms) = kind_name(r.kind);
     let reference_ms = report
         .run(NetRunKind::Reference)
         .map_or(f64::NAN, |x| x.ms_per_step);
     let mm = report.diagonal * 1e3;
+    let settling = match r.kind {
+        NetRunKind::TimeBudget { target_ms } => Some(r.settling(target_ms, interval as usize)),
+        _ => None,
+    };
     RunReport {
         label: r.label.clone(),
         kind,
@@ -397,6 +411,8 @@ fn run_report(r: &NetRun, report: &NetReport) -> RunReport {
         max_error_mm: r.error.max * mm,
         operations: r.operations,
         undone_operations: r.undone_operations,
+        settled_after_steps: settling.and_then(|s| s.settled_at),
+        ms_per_step_settled: settling.map(|s| s.mean_ms_after),
     }
 }
 
