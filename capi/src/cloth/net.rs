@@ -513,12 +513,17 @@ fn grow_cut(h: &Hierarchy, nodes: usize, key: impl Fn(NodeId) -> u64) -> Result<
     Ok(cut)
 }
 
-/// A cut of at most `nodes` nodes in which every region is at about the same depth: the
-/// largest nodes are refined first, ties in an order spread evenly over the cloth (a hash of
-/// the id). O(n log n).
+/// A cut of at most `nodes` nodes in which every region is at about the same depth: nodes of
+/// coarser levels are refined first, those of one level in an order spread evenly over the
+/// cloth (a hash of the id). O(n log n).
+///
+/// By level rather than by size: the quadtree of a grid whose side is not 2^k + 1 has larger
+/// blocks along two edges (a 65-vertex side splits into 31 blocks of 2 and one of 3), and
+/// refining the largest first would spend the whole remainder on a fine band along those
+/// edges.
 pub fn uniform_cut(h: &Hierarchy, nodes: usize) -> Result<Cut, ClothError> {
     grow_cut(h, nodes, |n| {
-        ((h.vertices(n).len() as u64) << 32) | (unit_hash(n.index() as u64, 0x0123) * 4.0e9) as u64
+        ((h.level(n) as u64) << 32) | (unit_hash(n.index() as u64, 0x0123) * 4.0e9) as u64
     })
 }
 
