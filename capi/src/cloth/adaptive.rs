@@ -296,6 +296,14 @@ impl AdaptiveCloth {
         )?;
         let h = self.body.hierarchy_arc().clone();
         let budget = f.node_budget(h.vertex_count());
+        // Over budget, the merges that bring the cut back are not limited to `max_ops`: a
+        // shrinking budget (a new target time, a host's new node count) is met within a few
+        // evaluations instead of dozens. Transitions lock their neighbourhoods, so about one
+        // merge in a region per evaluation proceeds anyway; their cost is a microsecond each.
+        let excess = self.body.cut().len().saturating_sub(budget);
+        let mut settings = f.settings.evaluator_settings();
+        settings.max_ops = settings.max_ops.max(excess);
+        f.evaluator.set_settings(settings);
         let ops = f.evaluator.evaluate(
             &h,
             self.body.cut(),

@@ -114,30 +114,29 @@ fn feedback_runs_are_bit_identical() {
 /// mass is conserved throughout.
 #[test]
 fn node_budget_is_reached_and_held() {
-    let mut c = net(33, 0, default_body_settings());
+    let mut c = net(65, 0, default_body_settings());
     let mass = c.body().total_mass();
     c.set_feedback(Some(FeedbackSettings {
-        budget: ClothBudget::Nodes(300),
+        budget: ClothBudget::Nodes(1000),
         interval: 2,
         ..FeedbackSettings::default()
     }))
     .unwrap();
     let mut reached = None;
-    for step in 0..400 {
+    for step in 0..120 {
         c.step().unwrap();
         let len = c.body().cut().len();
         match reached {
-            None if len <= 300 => reached = Some(step),
-            Some(_) => assert!(len <= 300, "left the budget at step {step}: {len}"),
+            None if len <= 1000 => reached = Some(step),
+            Some(_) => assert!(len <= 1000, "left the budget at step {step}: {len}"),
             None => {}
         }
         assert!((c.body().total_mass() - mass).abs() < 1e-5 * mass);
     }
-    assert!(
-        reached.is_some(),
-        "never reached the budget: {}",
-        c.body().cut().len()
-    );
+    // Over-budget merges are not capped by `max_ops`: the budget is met within a few
+    // evaluations (transitions lock their neighbourhoods, so each takes several).
+    let reached = reached.unwrap_or_else(|| panic!("never reached: {}", c.body().cut().len()));
+    assert!(reached < 40, "reached the budget only at step {reached}");
     assert!(c.body().particle_positions().iter().all(|p| p.is_finite()));
 }
 
