@@ -227,21 +227,11 @@ impl LinkStore {
     pub(crate) fn remove(&mut self, id: LinkId) {
         let slot = self.slots[id.index()];
         debug_assert!(slot.batch != FREE);
+        let i = slot.index as usize;
         let (a, b) = {
-            let (blk, k) = self.batch(slot.batch).lane(slot.index as usize);
+            let (blk, k) = self.batch(slot.batch).lane(i);
             (blk.a[k], blk.b[k])
         };
-        self.unstore(id, a, b);
-        for p in [a, b] {
-            self.forget_incident(p, id);
-        }
-    }
-
-    /// Takes link `id` between `a` and `b` out of its batch, its colours and the id table
-    /// (the incident lists are the caller's).
-    fn unstore(&mut self, id: LinkId, a: u32, b: u32) {
-        let slot = self.slots[id.index()];
-        let i = slot.index as usize;
         if slot.batch == OVERFLOW {
             self.overflow.ordered_remove(i);
             for k in i..self.overflow.len() {
@@ -256,6 +246,14 @@ impl LinkStore {
                 self.slots[moved.index()].index = i as u32;
             }
         }
+        for p in [a, b] {
+            let list = &mut self.incident[p as usize];
+            let at = list
+                .iter()
+                .position(|&(l, _)| l == id)
+                .expect("incident list out of sync");
+            list.swap_remove(at);
+        }
         self.slots[id.index()] = Slot {
             batch: FREE,
             index: 0,
@@ -264,23 +262,39 @@ impl LinkStore {
         self.len -= 1;
     }
 
-    /// Drops `id` from particle `p`'s incident list.
-    fn forget_incident(&mut self, p: u32, id: LinkId) {
-        let list = &mut self.incident[p as usize];
-        let at = list
-            .iter()
-            .position(|&(l, _)| l == id)
-            .expect("incident list out of sync");
-        list.swap_remove(at);
-    }
-
     /// Removes every link of particle `p` (as [`LinkStore::remove`] for each, without reading
     /// the ends back from the blocks: the incident list knows them).
     pub(crate) fn remove_all_of(&mut self, p: u32) {
         let mut list = std::mem::take(&mut self.incident[p as usize]);
         for &(id, other) in &list {
-            self.unstore(id, p, other);
-            self.forget_incident(other, id);
+            let slot = self.slots[id.index()];
+            let i = slot.index as usize;
+            if slot.batch == OVERFLOW {
+                self.overflow.ordered_remove(i);
+                for k in i..self.overflow.len() {
+                    let (blk, lane) = self.overflow.lane(k);
+                    self.slots[blk.id[lane] as usize].index = k as u32;
+                }
+            } else {
+                let bit = 1u64 << slot.batch;
+                self.colours[p as usize] &= !bit;
+                self.colours[other as usize] &= !bit;
+                if let Some(moved) = self.batches[slot.batch as usize].swap_remove(i) {
+                    self.slots[moved.index()].index = i as u32;
+                }
+            }
+            let olist = &mut self.incident[other as usize];
+            let at = olist
+                .iter()
+                .position(|&(l, _)| l == id)
+                .expect("incident list out of sync");
+            olist.swap_remove(at);
+            self.slots[id.index()] = Slot {
+                batch: FREE,
+                index: 0,
+            };
+            self.free.push(id.0);
+            self.len -= 1;
         }
         list.clear();
         self.incident[p as usize] = list;
