@@ -240,7 +240,7 @@ impl Feedback {
     pub(crate) fn node_budget(&self, full_nodes: usize) -> usize {
         match self.settings.budget {
             ClothBudget::Nodes(n) => n,
-            ClothBudget::Compression(f) => ((f as f64 * full_nodes as f64).round() as usize).max(1),
+            ClothBudget::Compression(f) => compression_nodes(f, full_nodes),
             ClothBudget::TargetStepMs(_) => self
                 .controller
                 .as_ref()
@@ -404,6 +404,11 @@ impl Feedback {
         }
         h.children(node).filter_map(live).fold(0.0, f32::max)
     }
+}
+
+/// The node count a compression (fraction of the full count) allows: rounded, at least 1.
+pub(crate) fn compression_nodes(compression: f32, full_nodes: usize) -> usize {
+    ((compression as f64 * full_nodes as f64).round() as usize).max(1)
 }
 
 /// A rest radius per hierarchy node: the largest rest distance from the node to a finest

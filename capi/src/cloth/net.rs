@@ -21,7 +21,7 @@ use treecut::{Cut, GridSpec, Hierarchy, NodeId};
 
 use super::adaptive::AdaptiveCloth;
 use super::error::ClothError;
-use super::feedback::{ClothBudget, FeedbackSettings};
+use super::feedback::{ClothBudget, FeedbackSettings, compression_nodes};
 
 /// What to run.
 #[derive(Clone, Debug, PartialEq)]
@@ -392,7 +392,7 @@ fn nodes_for(compression: f32, full: usize) -> Result<usize, ClothError> {
             reason: "must be in (0, 1]",
         });
     }
-    Ok(((compression as f64 * full as f64).round() as usize).max(1))
+    Ok(compression_nodes(compression, full))
 }
 
 #[allow(clippy::too_many_arguments)]

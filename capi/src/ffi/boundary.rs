@@ -86,27 +86,8 @@ pub(crate) unsafe fn copy_out<T: Copy>(
     out_len: *mut usize,
     name: &'static str,
 ) -> Result<(), FfiError> {
-    if out_len.is_null() {
-        return Err(FfiError::Null("out_len"));
-    }
-    // SAFETY: checked non-NULL above; validity per caller contract.
-    unsafe { *out_len = data.len() };
-    if data.len() > cap {
-        return Err(FfiError::BufferTooSmall {
-            arg: name,
-            cap,
-            needed: data.len(),
-        });
-    }
-    if data.is_empty() {
-        return Ok(());
-    }
-    if out.is_null() {
-        return Err(FfiError::Null(name));
-    }
-    // SAFETY: `out` is non-NULL and valid for `cap >= data.len()` writes per the caller contract.
-    unsafe { std::ptr::copy_nonoverlapping(data.as_ptr(), out, data.len()) };
-    Ok(())
+    // SAFETY: forwarded from the caller's contract, which is the same.
+    unsafe { copy_out_map(data, |&x| x, out, cap, out_len, name) }
 }
 
 /// [`copy_out`] of `src` converted element by element with `f` (no intermediate buffer).
