@@ -893,6 +893,10 @@ void slod_world_destroy(struct SlodWorld *world);
 /**
  * Sets the camera every cloth and crowd of the world sees from now on.
  *
+ * Until a host sets one, a world sees from the origin along −Z with +Y up, a 60° vertical
+ * field of view, a 1920 × 1080 viewport and a 0.01 near plane. The light set by
+ * `slod_world_set_light` stays.
+ *
  * Invalid values (NaN, zero viewport, field of view outside (0, π), zero or parallel
  * directions, near plane not > 0) return `SLOD_RESULT_INVALID_ARGUMENT` and the previous camera
  * stays. Cloths pick it up at their next `slod_cloth_step`, crowds at their next
@@ -988,7 +992,7 @@ SlodResult slod_cloth_destroy(struct SlodWorld *world, struct SlodClothId cloth)
 /**
  * Advances a cloth by one step of `desc.solver.dt` seconds.
  *
- * The cloth first takes the world's current camera and light. With feedback on, every
+ * The cloth sees the world's current view (camera and light). With feedback on, every
  * `interval` steps the step also measures salience and begins the refines and coarses the
  * evaluator chose; transitions whose blend is done end inside the step. Threads: mutates the
  * world; with feedback `parallel` the salience stage uses the world's worker threads. Errors:
@@ -1058,10 +1062,10 @@ SlodResult slod_cloth_unpin_vertex(struct SlodWorld *world,
 /**
  * Turns a cloth's feedback loop on (or changes its settings).
  *
- * From the next step on the cloth measures what the world's camera sees every `interval` steps
- * and moves its cut under the budget. Threads: mutates the world. Errors:
- * `SLOD_RESULT_INVALID_ARGUMENT` names the bad desc field; `SLOD_RESULT_REFUSED` if the world
- * has no camera yet (call `slod_world_set_camera` first). Nothing changes on error.
+ * From the next step on the cloth measures what the world's view sees every `interval` steps
+ * and moves its cut under the budget (set the camera with `slod_world_set_camera`; until then
+ * the world's default view is used). Threads: mutates the world. Errors:
+ * `SLOD_RESULT_INVALID_ARGUMENT` names the bad desc field. Nothing changes on error.
  *
  * # Safety
  * `world` NULL or a live world; `desc` NULL or valid.
@@ -1414,10 +1418,10 @@ SlodResult slod_crowd_set_lod(struct SlodWorld *world,
 
 /**
  * Advances every character of a crowd by `dt` seconds and updates their poses under the
- * crowd's LOD mode, seen by the world's camera; writes what the frame did to `*out_stats`.
+ * crowd's LOD mode, seen through the world's view; writes what the frame did to `*out_stats`.
  *
- * Until the world has a camera, crowds see from the origin with no view direction (everything
- * visible, distances from the origin). Threads: mutates the world. Errors:
+ * Until the host sets a camera, the world's default view is used (see
+ * `slod_world_set_camera`). Threads: mutates the world. Errors:
  * `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_INVALID_ARGUMENT` for `dt` not finite or outside
  * [0, 3600] (nothing advanced).
  *

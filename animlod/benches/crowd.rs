@@ -7,9 +7,10 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use animlod::experiment::{self, CrowdExperiment, Layout, THESIS_RANGE};
-use animlod::{Camera, Crowd, LodMode, PrioritySource, Rig};
+use animlod::{Crowd, LodMode, PrioritySource, Rig};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
+use salience::View;
 
 fn thesis_rig() -> Arc<Rig> {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets/gltf/GDQuest_GDBot.glb");
@@ -98,7 +99,7 @@ fn frame_crowd(
     lod: LodMode,
     source: PrioritySource,
     distance: f32,
-) -> Crowd {
+) -> (Crowd, View) {
     let mut cfg = CrowdExperiment::thesis(rig.clip_by_name("walk").unwrap());
     cfg.characters = characters;
     cfg.layout = layout;
@@ -106,19 +107,11 @@ fn frame_crowd(
     cfg.source = source;
     let (_, mut c) = experiment::build_crowds(rig, &cfg).unwrap();
     let (center, _) = rig.bounds();
-    c.set_camera(Camera {
-        position: Vec3::new(0.0, center.y, distance),
-        forward: Some(Vec3::NEG_Z),
-        fov_y: cfg.fov_y,
-        viewport_height: cfg.viewport_height,
-        aspect: cfg.aspect,
-        near: cfg.near,
-    })
-    .unwrap();
+    let view = cfg.view_from(Vec3::new(0.0, center.y, distance)).unwrap();
     for _ in 0..30 {
-        c.advance(cfg.dt).unwrap();
+        c.advance(cfg.dt, &view).unwrap();
     }
-    c
+    (c, view)
 }
 
 fn bench(c: &mut Criterion) {
@@ -140,10 +133,12 @@ fn bench(c: &mut Criterion) {
                 .map(|(id, _, lod, source)| (format!("{id}@{distance}"), lod, source)),
         );
         for (name, lod, source) in cases {
-            let mut crowd = frame_crowd(&rig, characters, layout, lod, source, distance);
-            let st = crowd.advance(1.0 / 60.0).unwrap();
+            let (mut crowd, view) = frame_crowd(&rig, characters, layout, lod, source, distance);
+            let st = crowd.advance(1.0 / 60.0, &view).unwrap();
             println!("{characters} characters, {name}: {st:?}");
-            g.bench_function(&name, |b| b.iter(|| crowd.advance(1.0 / 60.0).unwrap()));
+            g.bench_function(&name, |b| {
+                b.iter(|| crowd.advance(1.0 / 60.0, &view).unwrap());
+            });
         }
         g.finish();
     }

@@ -65,13 +65,15 @@ fn bench(c: &mut Criterion) {
             "Running",
         ),
     ];
+    // Off and Ratio modes ignore the view beyond measuring it.
+    let view = salience::View::default();
     let mut g = c.benchmark_group("sample");
     for (name, rig, clip) in &cases {
         let bones = rig.bone_count();
         g.throughput(Throughput::Elements((CHARACTERS * bones) as u64));
         let mut full = crowd(rig.clone(), clip, LodMode::Off);
         g.bench_function(format!("full/{name}"), |b| {
-            b.iter(|| full.advance(1.0 / 60.0).unwrap());
+            b.iter(|| full.advance(1.0 / 60.0, &view).unwrap());
         });
     }
     for (name, rig, clip) in &cases {
@@ -82,14 +84,14 @@ fn bench(c: &mut Criterion) {
         g.throughput(Throughput::Elements((CHARACTERS * animated) as u64));
         // Ω tiny but non-zero: every animated bone goes through the scheduler and holds.
         let mut held = crowd(rig.clone(), clip, LodMode::Ratio(1e-9));
-        held.advance(1.0 / 60.0).unwrap();
+        held.advance(1.0 / 60.0, &view).unwrap();
         g.bench_function(format!("held/{name}"), |b| {
-            b.iter(|| held.advance(1.0 / 60.0).unwrap());
+            b.iter(|| held.advance(1.0 / 60.0, &view).unwrap());
         });
         // Ω = 0: the character is frozen and skipped whole.
         let mut frozen = crowd(rig.clone(), clip, LodMode::Ratio(0.0));
         g.bench_function(format!("frozen/{name}"), |b| {
-            b.iter(|| frozen.advance(1.0 / 60.0).unwrap());
+            b.iter(|| frozen.advance(1.0 / 60.0, &view).unwrap());
         });
     }
     g.finish();

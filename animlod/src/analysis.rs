@@ -200,12 +200,14 @@ fn simulate(
     crowd.set_lod(LodMode::Ratio(setup.omega))?;
     let (mut done, mut possible) = (0u64, 0u64);
     let mut err = crate::ErrorSum::default();
+    // Ω is fixed and the error is measured in model units, so the view plays no part.
+    let view = salience::View::default();
     for _ in 0..setup.frames {
-        let st = crowd.advance(1.0 / 60.0)?;
+        let st = crowd.advance(1.0 / 60.0, &view)?;
         done += st.bones_interpolated;
         possible += st.bones_interpolated + st.bones_held;
         if measure {
-            crowd.accumulate_pose_error(&mut err);
+            crowd.accumulate_pose_error(&view, &mut err);
         }
     }
     let fraction = if possible > 0 {

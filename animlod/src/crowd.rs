@@ -1,6 +1,6 @@
 //! A crowd of characters sharing one rig: per-character state (position, clip, playback time,
-//! local and model matrices, last-update stamps), the camera, the LOD mode, and the frame loop
-//! that samples, schedules and concatenates.
+//! local and model matrices, last-update stamps), the LOD mode, and the frame loop that samples,
+//! schedules and concatenates as seen through the frame's [`View`].
 //!
 //! Per-character bone data lives in crowd-wide arrays (`characters × bones`), so a frame walks
 //! contiguous memory. Characters are kept dense (removal moves the last one into the hole); ids
@@ -10,10 +10,12 @@ use std::sync::Arc;
 
 use glam::{Affine3A, Mat4, Vec3};
 
-use crate::camera::{Camera, LodMode, omega_from_distance, omega_from_pixels};
+use salience::View;
+
 use crate::clip::{Clip, Cursor, TrsScratch};
 use crate::error::{CrowdError, invalid};
 use crate::ids::{BoneId, CharacterId, ClipId, SkinId};
+use crate::lod::{LodMode, omega_from_distance, omega_from_pixels};
 use crate::pose_error::{ErrorSum, PoseError};
 use crate::priority::PriorityWeights;
 use crate::rig::Rig;
@@ -151,7 +153,6 @@ pub struct Crowd {
     /// Per character, per animated-bone slot: bound on the drift of its hold so far (model
     /// units; used by [`LodMode::ErrorBound`]).
     drift: Vec<f32>,
-    camera: Camera,
     lod: LodMode,
     params: SchedulerParams,
     weights: PriorityWeights,
@@ -262,7 +263,7 @@ fn concat_moving(parents: &[u32], moving: &[u32], locals: &[Affine3A], models: &
 }
 
 impl Crowd {
-    /// An empty crowd for `rig`, with LOD off, the default camera and scheduler, equal priority
+    /// An empty crowd for `rig`, with LOD off, the default scheduler, equal priority
     /// weights and every user priority 1.
     pub fn new(rig: Arc<Rig>) -> Crowd {
         let bones = rig.bone_count();
@@ -277,7 +278,6 @@ impl Crowd {
             models: Vec::new(),
             last_update: Vec::new(),
             drift: Vec::new(),
-            camera: Camera::default(),
             lod: LodMode::Off,
             params: SchedulerParams::default(),
             weights: PriorityWeights::EQUAL,
@@ -483,18 +483,6 @@ impl Crowd {
         Ok(self.chars[self.dense(id)?].omega)
     }
 
-    /// Sets the camera (validated).
-    pub fn set_camera(&mut self, camera: Camera) -> Result<(), CrowdError> {
-        camera.validate()?;
-        self.camera = camera;
-        Ok(())
-    }
-
-    /// The camera.
-    pub fn camera(&self) -> &Camera {
-        &self.camera
-    }
-
     /// Sets the LOD mode (validated).
     pub fn set_lod(&mut self, lod: LodMode) -> Result<(), CrowdError> {
         lod.validate()?;
@@ -643,15 +631,15 @@ impl Crowd {
     }
 
     /// Advances every character by `dt` seconds (finite, ≥ 0) and updates their poses under the
-    /// current LOD mode. Refused (state unchanged) for a bad `dt`.
-    pub fn advance(&mut self, dt: f32) -> Result<FrameStats, CrowdError> {
+    /// current LOD mode, as seen through `view` (distances, projected sizes and visibility are
+    /// measured in it this frame; the crowd keeps no copy). Refused (state unchanged) for a bad
+    /// `dt`.
+    pub fn advance(&mut self, dt: f32, view: &View) -> Result<FrameStats, CrowdError> {
         if !(dt.is_finite() && dt >= 0.0) {
             return Err(invalid("dt", "must be finite and non-negative"));
         }
         let (center, radius) = self.rig.bounds();
         let lod = self.lod;
-        let camera = self.camera;
-        let projection = camera.projection();
         let (rig, stride) = (&self.rig, self.stride);
         for (d, c) in self.chars.iter_mut().enumerate() {
             let clip = &rig.clips()[c.clip.index()];
@@ -671,15 +659,15 @@ impl Crowd {
             }
             c.step = step;
             let world = c.position + center;
-            c.size_px = projection.projected_radius(world, radius);
-            c.near_ppu = projection.nearest_pixels_per_unit(world, radius);
-            let visible = c.size_px > 0.0 || projection.pixels_per_unit(world).is_some();
+            c.size_px = view.projected_radius_px(world, radius);
+            c.near_ppu = view.max_pixels_per_unit(world, radius);
+            let visible = view.sphere_in_view(world, radius);
             c.omega = match lod {
                 LodMode::Off | LodMode::Budget { .. } | LodMode::ErrorBound { .. } => 1.0,
                 LodMode::Ratio(o) => o,
                 LodMode::Range { min, max } => {
                     if visible {
-                        omega_from_distance(camera.distance(world), min, max)
+                        omega_from_distance(view.distance(world), min, max)
                     } else {
                         0.0
                     }
@@ -900,32 +888,34 @@ impl Crowd {
     }
 
     /// Pose error of one character against full-rate evaluation at its current time (joints only;
-    /// pixels through the current camera).
-    pub fn pose_error(&self, id: CharacterId) -> Result<PoseError, CrowdError> {
+    /// pixels through `view`).
+    pub fn pose_error(&self, id: CharacterId, view: &View) -> Result<PoseError, CrowdError> {
         let d = self.dense(id)?;
         let mut sum = ErrorSum::default();
-        self.accumulate_error(d, &mut sum, &mut Vec::new(), &mut Vec::new());
+        self.accumulate_error(d, view, &mut sum, &mut Vec::new(), &mut Vec::new());
         Ok(sum.finish())
     }
 
-    /// Pose error over every joint of every character.
-    pub fn total_pose_error(&self) -> PoseError {
+    /// Pose error over every joint of every character, pixels through `view`.
+    pub fn total_pose_error(&self, view: &View) -> PoseError {
         let mut sum = ErrorSum::default();
-        self.accumulate_pose_error(&mut sum);
+        self.accumulate_pose_error(view, &mut sum);
         sum.finish()
     }
 
-    /// Adds every joint of every character to running error sums (to aggregate over frames).
-    pub fn accumulate_pose_error(&self, sum: &mut ErrorSum) {
+    /// Adds every joint of every character, seen through `view`, to running error sums (to
+    /// aggregate over frames).
+    pub fn accumulate_pose_error(&self, view: &View, sum: &mut ErrorSum) {
         let (mut locals, mut models) = (Vec::new(), Vec::new());
         for d in 0..self.chars.len() {
-            self.accumulate_error(d, sum, &mut locals, &mut models);
+            self.accumulate_error(d, view, sum, &mut locals, &mut models);
         }
     }
 
     fn accumulate_error(
         &self,
         d: usize,
+        view: &View,
         sum: &mut ErrorSum,
         locals: &mut Vec<Affine3A>,
         reference: &mut Vec<Mat4>,
@@ -940,13 +930,7 @@ impl Crowd {
         clip.sample_locals(c.time, &mut Vec::new(), &mut trs, locals);
         let skeleton = self.rig.skeleton();
         skeleton.model_matrices(locals, reference);
-        sum.add_pose(
-            skeleton.joint_flags(),
-            models,
-            reference,
-            c.position,
-            &self.camera,
-        );
+        sum.add_pose(skeleton.joint_flags(), models, reference, c.position, view);
     }
 }
 

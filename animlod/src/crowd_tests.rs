@@ -8,6 +8,7 @@ use glam::{Mat4, Vec3};
 use super::*;
 use crate::import::tests::asset;
 use crate::{ClipId, LodMode, PriorityWeights, Rig, SchedulerParams};
+use salience::View;
 
 fn gdbot() -> Arc<Rig> {
     Arc::new(Rig::from_gltf_path(&asset("GDQuest_GDBot.glb")).unwrap())
@@ -34,6 +35,19 @@ fn crowd(rig: &Arc<Rig>, n: usize) -> (Crowd, Vec<CharacterId>) {
     (c, ids)
 }
 
+/// A view that sees the line of characters `crowd` builds (from 12 units in front).
+fn view() -> View {
+    View::look_at(
+        Vec3::new(3.0, 1.0, 12.0),
+        Vec3::new(3.0, 1.0, 0.0),
+        Vec3::Y,
+        60f32.to_radians(),
+        1920,
+        1080,
+    )
+    .unwrap()
+}
+
 fn snapshot(c: &Crowd) -> Vec<(CharacterId, f32, Vec<Mat4>)> {
     c.character_ids()
         .map(|id| {
@@ -50,7 +64,7 @@ fn snapshot(c: &Crowd) -> Vec<(CharacterId, f32, Vec<Mat4>)> {
 fn ids_are_generational_and_removal_keeps_the_others() {
     let rig = gdbot();
     let (mut c, ids) = crowd(&rig, 3);
-    c.advance(0.1).unwrap();
+    c.advance(0.1, &view()).unwrap();
     let keep0 = c.model_matrices(ids[0]).unwrap().to_vec();
     let keep2 = c.model_matrices(ids[2]).unwrap().to_vec();
     c.remove_character(ids[1]).unwrap();
@@ -61,7 +75,7 @@ fn ids_are_generational_and_removal_keeps_the_others() {
         c.remove_character(ids[1]).unwrap_err(),
         c.model_matrices(ids[1]).unwrap_err(),
         c.set_position(ids[1], Vec3::ZERO).unwrap_err(),
-        c.pose_error(ids[1]).unwrap_err(),
+        c.pose_error(ids[1], &view()).unwrap_err(),
     ] {
         assert_eq!(e, CrowdError::StaleCharacter(ids[1]));
     }
@@ -78,13 +92,13 @@ fn ids_are_generational_and_removal_keeps_the_others() {
 fn refused_inputs_leave_the_crowd_unchanged() {
     let rig = gdbot();
     let (mut c, ids) = crowd(&rig, 2);
-    c.advance(0.05).unwrap();
+    c.advance(0.05, &view()).unwrap();
     let before = snapshot(&c);
-    let (lod, cam, w) = (c.lod(), *c.camera(), *c.priority_weights());
+    let (lod, w) = (c.lod(), *c.priority_weights());
     let mut out = vec![Mat4::IDENTITY; 3];
-    assert!(c.advance(f32::NAN).is_err());
-    assert!(c.advance(-0.1).is_err());
-    assert!(c.advance(f32::INFINITY).is_err());
+    assert!(c.advance(f32::NAN, &view()).is_err());
+    assert!(c.advance(-0.1, &view()).is_err());
+    assert!(c.advance(f32::INFINITY, &view()).is_err());
     assert!(
         c.add_character(Vec3::new(f32::NAN, 0.0, 0.0), walk(&rig))
             .is_err()
@@ -109,20 +123,6 @@ fn refused_inputs_leave_the_crowd_unchanged() {
             needed: 63,
             given: 3
         }
-    );
-    assert!(
-        c.set_camera(Camera {
-            fov_y: 4.0,
-            ..Camera::default()
-        })
-        .is_err()
-    );
-    assert!(
-        c.set_camera(Camera {
-            viewport_height: f32::NAN,
-            ..Camera::default()
-        })
-        .is_err()
     );
     assert!(
         c.set_lod(LodMode::Range {
@@ -153,7 +153,7 @@ fn refused_inputs_leave_the_crowd_unchanged() {
         .is_err()
     );
     assert_eq!(snapshot(&c), before);
-    assert_eq!((c.lod(), *c.camera(), *c.priority_weights()), (lod, cam, w));
+    assert_eq!((c.lod(), *c.priority_weights()), (lod, w));
     assert_eq!(c.len(), 2);
 }
 
@@ -164,7 +164,7 @@ fn full_detail_matches_an_independent_reference() {
     let clip = rig.clip(walk(&rig)).unwrap();
     let animated = clip.animated_bone_count() as u64;
     for _ in 0..37 {
-        let st = c.advance(1.0 / 60.0).unwrap();
+        let st = c.advance(1.0 / 60.0, &view()).unwrap();
         assert_eq!(st.bones_interpolated, 4 * animated);
         assert_eq!(st.bones_held, 0);
         assert_eq!(st.bones_constant, 4 * (rig.bone_count() as u64 - animated));
@@ -179,7 +179,7 @@ fn full_detail_matches_an_independent_reference() {
         for (a, b) in c.model_matrices(id).unwrap().iter().zip(&reference) {
             assert!(a.abs_diff_eq(*b, 1e-5));
         }
-        assert_eq!(c.pose_error(id).unwrap().max, 0.0);
+        assert_eq!(c.pose_error(id, &view()).unwrap().max, 0.0);
     }
     // Skinning matrices are model × inverse bind.
     let mut out = vec![Mat4::IDENTITY; 63];
@@ -203,16 +203,16 @@ fn scheduler_contract() {
     c.set_lod(LodMode::Ratio(1.0)).unwrap();
     for _ in 0..20 {
         assert_eq!(
-            c.advance(1.0 / 60.0).unwrap().bones_interpolated,
+            c.advance(1.0 / 60.0, &view()).unwrap().bones_interpolated,
             3 * animated
         );
     }
-    assert_eq!(c.total_pose_error().max, 0.0);
+    assert_eq!(c.total_pose_error(&view()).max, 0.0);
     // Ω = 0: nothing interpolates, nothing is concatenated, the pose does not move.
     c.set_lod(LodMode::Ratio(0.0)).unwrap();
     let before = snapshot(&c);
     for _ in 0..20 {
-        let st = c.advance(1.0 / 60.0).unwrap();
+        let st = c.advance(1.0 / 60.0, &view()).unwrap();
         assert_eq!(
             (
                 st.bones_interpolated,
@@ -225,14 +225,14 @@ fn scheduler_contract() {
     for ((_, _, a), (_, _, b)) in snapshot(&c).iter().zip(&before) {
         assert_eq!(a, b);
     }
-    assert!(c.total_pose_error().max > 0.0);
+    assert!(c.total_pose_error(&view()).max > 0.0);
     // Fewer updates as Ω falls (total over two loops of the clip, same start state).
     let mut last = u64::MAX;
     for k in (1..20).rev() {
         let (mut c, _) = crowd(&rig, 3);
         c.set_lod(LodMode::Ratio(k as f32 / 20.0)).unwrap();
         let total: u64 = (0..96)
-            .map(|_| c.advance(1.0 / 60.0).unwrap().bones_interpolated)
+            .map(|_| c.advance(1.0 / 60.0, &view()).unwrap().bones_interpolated)
             .sum();
         assert!(total <= last, "Ω = {}: {total} > {last}", k as f32 / 20.0);
         last = total;
@@ -247,7 +247,7 @@ fn scheduler_contract() {
         }
         c.set_lod(LodMode::Ratio(0.5)).unwrap();
         (0..96)
-            .map(|_| c.advance(1.0 / 60.0).unwrap().bones_interpolated)
+            .map(|_| c.advance(1.0 / 60.0, &view()).unwrap().bones_interpolated)
             .sum::<u64>()
     };
     assert!(count(0.25) < count(1.0));
@@ -262,7 +262,7 @@ fn held_subtrees_skip_concatenation_and_stay_consistent() {
     let mut skipped = 0;
     for _ in 0..60 {
         let before = snapshot(&c);
-        let st = c.advance(1.0 / 60.0).unwrap();
+        let st = c.advance(1.0 / 60.0, &view()).unwrap();
         let changed: u64 = snapshot(&c)
             .iter()
             .zip(&before)
@@ -293,8 +293,8 @@ fn error_shrinks_as_omega_grows() {
         c.set_lod(LodMode::Ratio(omega)).unwrap();
         let mut sum = ErrorSum::default();
         for _ in 0..96 {
-            c.advance(1.0 / 60.0).unwrap();
-            c.accumulate_pose_error(&mut sum);
+            c.advance(1.0 / 60.0, &view()).unwrap();
+            c.accumulate_pose_error(&view(), &mut sum);
         }
         errors.push(sum.finish().mean);
     }
@@ -308,25 +308,28 @@ fn error_bound_holds_per_bone_drift_under_the_bound() {
     // `max_error_px` on screen (chains of held bones add up, so the total is checked loosely).
     let rig = gdbot();
     let (mut c, ids) = crowd(&rig, 1);
-    c.set_camera(Camera {
-        position: Vec3::new(0.0, 1.0, 12.0),
-        forward: Some(Vec3::NEG_Z),
-        ..Camera::default()
-    })
+    let cam = View::new(
+        Vec3::new(0.0, 1.0, 12.0),
+        Vec3::NEG_Z,
+        Vec3::Y,
+        60f32.to_radians(),
+        1920,
+        1080,
+    )
     .unwrap();
     c.set_lod(LodMode::ErrorBound { max_error_px: 1.0 })
         .unwrap();
     let mut held = 0;
     for _ in 0..200 {
-        let st = c.advance(1.0 / 60.0).unwrap();
+        let st = c.advance(1.0 / 60.0, &cam).unwrap();
         held += st.bones_held;
-        let e = c.pose_error(ids[0]).unwrap();
+        let e = c.pose_error(ids[0], &cam).unwrap();
         assert!(e.max_px < 2.0, "{e:?}");
     }
     assert!(held > 0);
     // Behind the camera, nothing animates.
     c.set_position(ids[0], Vec3::new(0.0, 0.0, 40.0)).unwrap();
-    assert_eq!(c.advance(1.0 / 60.0).unwrap().bones_interpolated, 0);
+    assert_eq!(c.advance(1.0 / 60.0, &cam).unwrap().bones_interpolated, 0);
 }
 
 #[test]
@@ -339,11 +342,14 @@ fn budget_caps_updates_and_favours_the_near_character() {
     let far = c.add_character(Vec3::new(0.0, 0.0, -60.0), clip).unwrap();
     c.set_time(far, 0.3).unwrap();
     c.set_time(near, 0.3).unwrap();
-    c.set_camera(Camera {
-        position: Vec3::new(0.0, 1.0, 0.0),
-        forward: Some(Vec3::NEG_Z),
-        ..Camera::default()
-    })
+    let cam = View::new(
+        Vec3::new(0.0, 1.0, 0.0),
+        Vec3::NEG_Z,
+        Vec3::Y,
+        60f32.to_radians(),
+        1920,
+        1080,
+    )
     .unwrap();
     let budget = animated / 2;
     c.set_lod(LodMode::Budget {
@@ -352,11 +358,14 @@ fn budget_caps_updates_and_favours_the_near_character() {
     .unwrap();
     let (mut near_err, mut far_err) = (ErrorSum::default(), ErrorSum::default());
     for frame in 0..120 {
-        let st = c.advance(1.0 / 60.0).unwrap();
+        let st = c.advance(1.0 / 60.0, &cam).unwrap();
         assert!(st.bones_interpolated <= budget as u64);
         if frame > 10 {
             assert_eq!(st.bones_interpolated, budget as u64);
-            let (n, f) = (c.pose_error(near).unwrap(), c.pose_error(far).unwrap());
+            let (n, f) = (
+                c.pose_error(near, &cam).unwrap(),
+                c.pose_error(far, &cam).unwrap(),
+            );
             near_err.add(n.mean, None);
             far_err.add(f.mean, None);
         }
@@ -369,7 +378,7 @@ fn budget_caps_updates_and_favours_the_near_character() {
         bone_updates_per_frame: 0,
     })
     .unwrap();
-    assert_eq!(c.advance(1.0 / 60.0).unwrap().bones_interpolated, 0);
+    assert_eq!(c.advance(1.0 / 60.0, &cam).unwrap().bones_interpolated, 0);
 }
 
 #[test]
@@ -381,10 +390,10 @@ fn playback_controls() {
     assert!((c.time(ids[0]).unwrap() - d * 0.5).abs() < 1e-5);
     c.set_speed(ids[0], 0.0).unwrap();
     let before = snapshot(&c);
-    c.advance(0.3).unwrap();
+    c.advance(0.3, &view()).unwrap();
     assert_eq!(snapshot(&c), before);
     c.set_speed(ids[0], 2.0).unwrap();
-    c.advance(0.1).unwrap();
+    c.advance(0.1, &view()).unwrap();
     assert!((c.time(ids[0]).unwrap() - (d * 0.5 + 0.2)).abs() < 1e-5);
     let idle = rig.clip_by_name("Idle").unwrap();
     c.set_clip(ids[0], idle).unwrap();
@@ -392,12 +401,12 @@ fn playback_controls() {
         (c.clip(ids[0]).unwrap(), c.time(ids[0]).unwrap()),
         (idle, 0.0)
     );
-    assert_eq!(c.pose_error(ids[0]).unwrap().max, 0.0);
+    assert_eq!(c.pose_error(ids[0], &view()).unwrap().max, 0.0);
     // Long runs rebase the clock without disturbing playback.
     c.set_lod(LodMode::Ratio(0.5)).unwrap();
     for _ in 0..2000 {
-        c.advance(0.5).unwrap();
+        c.advance(0.5, &view()).unwrap();
     }
     assert!(c.chars[0].clock <= CLOCK_REBASE);
-    assert!(c.pose_error(ids[0]).unwrap().max < 1.0);
+    assert!(c.pose_error(ids[0], &view()).unwrap().max < 1.0);
 }

@@ -168,6 +168,9 @@ pub enum CrowdError {
     /// Character slots exhausted.
     #[error("too many characters")]
     TooManyCharacters,
+    /// A view could not be built from the values given.
+    #[error("view: {0}")]
+    View(#[from] salience::ViewError),
 }
 
 /// Shorthand for argument checks.

@@ -17,10 +17,12 @@ use std::time::Instant;
 
 use glam::Vec3;
 
-use crate::camera::{Camera, LodMode};
+use salience::View;
+
 use crate::crowd::Crowd;
 use crate::error::{BuildError, CrowdError};
 use crate::ids::{BoneId, ClipId};
+use crate::lod::LodMode;
 use crate::pose_error::ErrorSum;
 use crate::priority::PriorityWeights;
 use crate::rig::Rig;
@@ -95,6 +97,16 @@ pub struct CrowdExperiment {
 }
 
 impl CrowdExperiment {
+    /// The experiment's view from `eye` along −z (its field of view, viewport and near plane).
+    pub fn view_from(&self, eye: Vec3) -> Result<View, CrowdError> {
+        let height = self.viewport_height.round().max(1.0) as u32;
+        let width = (self.viewport_height * self.aspect).round().max(1.0) as u32;
+        Ok(
+            View::new(eye, Vec3::NEG_Z, Vec3::Y, self.fov_y, width, height)?
+                .with_near(self.near)?,
+        )
+    }
+
     /// The thesis' setup: 100 characters in a grid (spacing 150 units), the thesis' range
     /// [200, 1700], the camera from 100 to 3000 units, 60 Hz, a 60° 16:9 view 1080 pixels high
     /// with its near plane at 10 units.
@@ -285,19 +297,10 @@ pub fn run(rig: &Arc<Rig>, cfg: &CrowdExperiment) -> Result<Vec<SweepRow>, Crowd
     let lod_ids: Vec<_> = lod.character_ids().collect();
     let mut rows = Vec::with_capacity(cfg.distances.len());
     for &distance in &cfg.distances {
-        let camera = Camera {
-            position: Vec3::new(0.0, center.y, distance),
-            forward: Some(Vec3::NEG_Z),
-            fov_y: cfg.fov_y,
-            viewport_height: cfg.viewport_height,
-            aspect: cfg.aspect,
-            near: cfg.near,
-        };
-        full.set_camera(camera)?;
-        lod.set_camera(camera)?;
+        let view = cfg.view_from(Vec3::new(0.0, center.y, distance))?;
         for _ in 0..cfg.warmup_frames {
-            full.advance(cfg.dt)?;
-            lod.advance(cfg.dt)?;
+            full.advance(cfg.dt, &view)?;
+            lod.advance(cfg.dt, &view)?;
         }
         let (mut tf, mut tl) = (
             Vec::with_capacity(cfg.frames),
@@ -310,9 +313,9 @@ pub fn run(rig: &Arc<Rig>, cfg: &CrowdExperiment) -> Result<Vec<SweepRow>, Crowd
         let mut sum = ErrorSum::default();
         for _ in 0..cfg.frames {
             let t0 = Instant::now();
-            let sf = full.advance(cfg.dt)?;
+            let sf = full.advance(cfg.dt, &view)?;
             let t1 = Instant::now();
-            let sl = lod.advance(cfg.dt)?;
+            let sl = lod.advance(cfg.dt, &view)?;
             let t2 = Instant::now();
             tf.push((t1 - t0).as_secs_f64() * 1e3);
             tl.push((t2 - t1).as_secs_f64() * 1e3);
@@ -328,7 +331,7 @@ pub fn run(rig: &Arc<Rig>, cfg: &CrowdExperiment) -> Result<Vec<SweepRow>, Crowd
                     lod.model_matrices(b)?,
                     full.model_matrices(a)?,
                     position,
-                    &camera,
+                    &view,
                 );
             }
         }

@@ -8,8 +8,8 @@
 //! - [`SubPriorities`] — static per-keyframe priorities of every animated bone (thesis ch. 10–12,
 //!   with its two defects fixed), combined with [`PriorityWeights`];
 //!   [`analysis::derive_weights`] fits the weights to measured pose error.
-//! - [`Crowd`] — characters sharing an `Arc<Rig>`; [`LodMode`] and [`Camera`] give each its
-//!   camera ratio Ω; the [`scheduler`] turns priority × Ω into an update period per bone (the
+//! - [`Crowd`] — characters sharing an `Arc<Rig>`; [`LodMode`] and the frame's
+//!   [`salience::View`] give each its camera ratio Ω; the [`scheduler`] turns priority × Ω into an update period per bone (the
 //!   thesis' reading), [`LodMode::Budget`] spends a fixed number of interpolations per frame over
 //!   the crowd, and [`LodMode::ErrorBound`] holds a bone only while its measured on-screen drift
 //!   stays under a pixel bound; [`Crowd::advance`] samples, holds and concatenates (skipping
@@ -19,13 +19,13 @@
 #![warn(missing_docs)]
 
 pub mod analysis;
-mod camera;
 mod clip;
 mod crowd;
 mod error;
 pub mod experiment;
 mod ids;
 mod import;
+mod lod;
 mod pose_error;
 mod priority;
 mod rig;
@@ -34,12 +34,12 @@ pub mod scheduler;
 mod skeleton;
 mod transform;
 
-pub use camera::{Camera, LodMode, Projection, omega_from_distance, omega_from_pixels};
 pub use clip::{ChannelDesc, ChannelStats, Clip, ClipOptions, Interpolation, Keys, Property};
 pub use crowd::{Crowd, FrameStats, PrioritySource};
 pub use error::{BuildError, CrowdError, ImportError};
 pub use ids::{BoneId, CharacterId, ClipId, SkinId};
 pub use import::{ImportOptions, ImportReport};
+pub use lod::{LodMode, omega_from_distance, omega_from_pixels};
 pub use pose_error::{ErrorSum, PoseError};
 pub use priority::{Factor, PriorityWeights, SubPriorities};
 pub use rig::{Rig, Skin};

@@ -3,7 +3,7 @@
 
 use glam::{Mat4, Vec3};
 
-use crate::camera::Camera;
+use salience::View;
 
 /// Joint position error statistics.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -14,7 +14,7 @@ pub struct PoseError {
     pub mean: f32,
     /// Largest model-space position error.
     pub max: f32,
-    /// Joints in front of the camera (the pixel statistics cover these).
+    /// Joints inside the view (the pixel statistics cover these).
     pub visible_joints: u64,
     /// Mean on-screen error in pixels (error length × pixels per unit at the joint's depth).
     pub mean_px: f32,
@@ -56,16 +56,17 @@ impl ErrorSum {
         pose: &[Mat4],
         reference: &[Mat4],
         position: Vec3,
-        camera: &Camera,
+        view: &View,
     ) {
-        let projection = camera.projection();
         for ((&j, a), b) in joints.iter().zip(pose).zip(reference) {
             if !j {
                 continue;
             }
             let pa = a.w_axis.truncate();
             let pb = b.w_axis.truncate();
-            self.add(pa.distance(pb), projection.pixels_per_unit(position + pb));
+            let at = position + pb;
+            let ppu = view.is_in_view(at, 0.0).then(|| view.pixels_per_unit(at));
+            self.add(pa.distance(pb), ppu);
         }
     }
 

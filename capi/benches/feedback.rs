@@ -15,7 +15,6 @@ fn cloth(config: &NetConfig, compression: Option<f32>) -> AdaptiveCloth {
             .pin_vertex(spec.vertex(i, j), spec.position(i, j))
             .unwrap();
     }
-    c.set_camera(config.camera);
     if let Some(f) = compression {
         c.set_feedback(Some(FeedbackSettings {
             budget: ClothBudget::Compression(f),
@@ -25,7 +24,7 @@ fn cloth(config: &NetConfig, compression: Option<f32>) -> AdaptiveCloth {
     }
     // Into the swing, with the cut adapted.
     for _ in 0..240 {
-        c.step().unwrap();
+        c.step(&config.view).unwrap();
     }
     c
 }
@@ -39,12 +38,14 @@ fn bench(c: &mut Criterion) {
         ("feedback30", Some(0.3)),
     ] {
         let mut cl = cloth(&config, compression);
-        g.bench_function(format!("step/{name}"), |b| b.iter(|| cl.step().unwrap()));
+        g.bench_function(format!("step/{name}"), |b| {
+            b.iter(|| cl.step(&config.view).unwrap())
+        });
     }
     for compression in [1.0, 0.3] {
         let mut cl = cloth(&config, Some(compression));
         g.bench_function(format!("evaluate/{}", (compression * 100.0) as u32), |b| {
-            b.iter(|| cl.evaluate().unwrap());
+            b.iter(|| cl.evaluate(&config.view).unwrap());
         });
     }
     g.finish();

@@ -6,7 +6,7 @@ use std::hint::black_box;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use salience::{
-    BswdfParams, Camera, Light, NeighbourLists, Neighbours, Nodes, ObjectMotion, Sidedness, View,
+    BswdfJob, BswdfParams, Light, NeighbourLists, Neighbours, Nodes, ObjectMotion, Sidedness, View,
     evaluate,
 };
 
@@ -61,7 +61,7 @@ fn cloth() -> Cloth {
 fn bench(c: &mut Criterion) {
     let cloth = cloth();
     let n = cloth.positions.len();
-    let camera = Camera::look_at(
+    let camera = View::look_at(
         Vec3::new(0.3, 0.4, 1.5),
         Vec3::ZERO,
         Vec3::Y,
@@ -87,46 +87,42 @@ fn bench(c: &mut Criterion) {
         ("normals_light", Some(&sun), true),
     ];
     for (name, light, with_normals) in cases {
-        let view = View {
-            camera: &camera,
-            light,
+        let view = camera.with_light(light.copied()).unwrap();
+        let job = BswdfJob {
+            view: &view,
             object,
             params: &params,
-        };
-        let nodes = Nodes {
-            positions: &cloth.positions,
-            velocities: &cloth.velocities,
-            normals: with_normals.then_some(&cloth.normals[..]),
+            nodes: Nodes {
+                positions: &cloth.positions,
+                velocities: &cloth.velocities,
+                normals: with_normals.then_some(&cloth.normals[..]),
+            },
+            neighbours,
         };
         group.bench_function(name, |b| {
             b.iter(|| {
-                evaluate(black_box(&view), black_box(&nodes), &neighbours, &mut out).unwrap();
+                evaluate(black_box(&job), &mut out).unwrap();
                 black_box(&out);
             });
         });
     }
     #[cfg(feature = "rayon")]
     {
-        let view = View {
-            camera: &camera,
-            light: Some(&sun),
+        let view = camera.with_light(Some(sun)).unwrap();
+        let job = BswdfJob {
+            view: &view,
             object,
             params: &params,
-        };
-        let nodes = Nodes {
-            positions: &cloth.positions,
-            velocities: &cloth.velocities,
-            normals: Some(&cloth.normals),
+            nodes: Nodes {
+                positions: &cloth.positions,
+                velocities: &cloth.velocities,
+                normals: Some(&cloth.normals),
+            },
+            neighbours,
         };
         group.bench_function("normals_light_parallel", |b| {
             b.iter(|| {
-                salience::evaluate_parallel(
-                    black_box(&view),
-                    black_box(&nodes),
-                    &neighbours,
-                    &mut out,
-                )
-                .unwrap();
+                salience::evaluate_parallel(black_box(&job), &mut out).unwrap();
                 black_box(&out);
             });
         });

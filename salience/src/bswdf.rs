@@ -24,12 +24,12 @@
 
 use glam::{Mat4, Vec3, Vec4};
 
-use crate::camera::{Camera, MIN_VIEW_DISTANCE};
 use crate::error::SalienceError;
-use crate::light::{Light, LightSource};
+use crate::light::LightSource;
 use crate::motion::{GlobalMotion, ObjectMotion};
 use crate::neighbours::Neighbours;
 use crate::params::{BswdfParams, Sidedness};
+use crate::view::{MIN_VIEW_DISTANCE, View};
 
 /// The per-node inputs: one entry per node in each slice, indexed like the neighbour table.
 #[derive(Debug, Clone, Copy)]
@@ -44,31 +44,29 @@ pub struct Nodes<'a> {
     pub normals: Option<&'a [Vec3]>,
 }
 
-/// Everything an evaluation needs besides the node data: who looks, from where the light comes,
-/// how the object moves as a whole, and the curve constants.
+/// One evaluation's inputs, as ozz-animation's sampling jobs take theirs: who looks (the
+/// [`View`], whose light — if any — is the illumination term), how the object moves as a whole,
+/// the curve constants, the per-node slices and their neighbour table.
 #[derive(Debug, Clone, Copy)]
-pub struct View<'a> {
-    /// The camera.
-    pub camera: &'a Camera,
-    /// The light, or `None` for the animation features alone.
-    pub light: Option<&'a Light>,
+pub struct BswdfJob<'a> {
+    /// The view (camera, viewport, optional light).
+    pub view: &'a View,
     /// The object's own motion (for the global terms).
     pub object: ObjectMotion,
     /// The curve constants.
     pub params: &'a BswdfParams,
+    /// Per-node positions, velocities and optional normals.
+    pub nodes: Nodes<'a>,
+    /// Each node's neighbours, indexed like the node slices.
+    pub neighbours: Neighbours<'a>,
 }
 
 /// Evaluates the BSWDF of every node into `out` (one value in [0, 1] per node).
 ///
 /// Checks the parameters, light, object motion and all slice lengths first; on error `out` is
 /// untouched. Allocates nothing. Returns the global-motion terms used.
-pub fn evaluate(
-    view: &View<'_>,
-    nodes: &Nodes<'_>,
-    neighbours: &Neighbours<'_>,
-    out: &mut [f32],
-) -> Result<GlobalMotion, SalienceError> {
-    let n = nodes.positions.len();
+pub fn evaluate(job: &BswdfJob<'_>, out: &mut [f32]) -> Result<GlobalMotion, SalienceError> {
+    let n = job.nodes.positions.len();
     if out.len() != n {
         return Err(SalienceError::LengthMismatch {
             what: "out",
@@ -76,21 +74,19 @@ pub fn evaluate(
             found: out.len(),
         });
     }
-    evaluate_range(view, nodes, neighbours, 0, out)
+    evaluate_range(job, 0, out)
 }
 
 /// Evaluates nodes `first .. first + out.len()` into `out`; the building block for splitting one
 /// evaluation across threads (each chunk reads the shared node slices and writes its own part
 /// of the output). Same checks and guarantees as [`evaluate`].
 pub fn evaluate_range(
-    view: &View<'_>,
-    nodes: &Nodes<'_>,
-    neighbours: &Neighbours<'_>,
+    job: &BswdfJob<'_>,
     first: usize,
     out: &mut [f32],
 ) -> Result<GlobalMotion, SalienceError> {
-    let prepared = Prepared::new(view, nodes, neighbours, first, out.len())?;
-    prepared.run(nodes, neighbours, first, out);
+    let prepared = Prepared::new(job, first, out.len())?;
+    prepared.run(job, first, out);
     Ok(prepared.global)
 }
 
@@ -127,16 +123,10 @@ const LIGHT_DIRECTIONAL: u8 = 1;
 const LIGHT_POINT: u8 = 2;
 
 impl Prepared {
-    pub(crate) fn new(
-        view: &View<'_>,
-        nodes: &Nodes<'_>,
-        neighbours: &Neighbours<'_>,
-        first: usize,
-        len: usize,
-    ) -> Result<Self, SalienceError> {
-        let params = view.params;
+    pub(crate) fn new(job: &BswdfJob<'_>, first: usize, len: usize) -> Result<Self, SalienceError> {
+        let (nodes, neighbours, params) = (&job.nodes, &job.neighbours, job.params);
         params.validate()?;
-        if !(view.object.centre.is_finite() && view.object.velocity.is_finite()) {
+        if !(job.object.centre.is_finite() && job.object.velocity.is_finite()) {
             return Err(SalienceError::NonFiniteObjectMotion);
         }
         let n = nodes.positions.len();
@@ -165,7 +155,7 @@ impl Prepared {
                 node_count: n,
             });
         }
-        let (ambient, diffuse, light, light_kind) = match view.light {
+        let (ambient, diffuse, light, light_kind) = match job.view.light() {
             None => (1.0, 0.0, Vec3::ZERO, LIGHT_NONE),
             Some(light) => {
                 light.validate()?;
@@ -181,8 +171,8 @@ impl Prepared {
                 (light.ambient, light.diffuse, l, kind)
             }
         };
-        let camera = view.camera;
-        let global = GlobalMotion::new(camera, &view.object, params);
+        let camera = job.view;
+        let global = GlobalMotion::new(camera, &job.object, params);
         let widen = 1.0 + params.view_margin;
         Ok(Self {
             global,
@@ -202,7 +192,7 @@ impl Prepared {
             facing_floor: params.facing_floor,
             facing_scale: 1.0 - params.facing_floor,
             two_sided: params.sides == Sidedness::TwoSided,
-            object_velocity: view.object.velocity,
+            object_velocity: job.object.velocity,
             ambient,
             diffuse,
             light,
@@ -212,13 +202,8 @@ impl Prepared {
 
     /// Picks the loop specialised for this combination of normals and light, so the node loop
     /// carries no per-node mode tests.
-    pub(crate) fn run(
-        &self,
-        nodes: &Nodes<'_>,
-        neighbours: &Neighbours<'_>,
-        first: usize,
-        out: &mut [f32],
-    ) {
+    pub(crate) fn run(&self, job: &BswdfJob<'_>, first: usize, out: &mut [f32]) {
+        let (nodes, neighbours) = (&job.nodes, &job.neighbours);
         match (nodes.normals, self.light_kind) {
             // Without normals the positions stand in for the (unused) normal slice.
             (None, _) => {
@@ -264,16 +249,18 @@ impl Prepared {
         // Full blocks as fixed-size arrays, so the four lanes unroll with constant slots. An
         // index loop: the equivalent five-way iterator zip is not inlined and costs ~4%.
         let full = out.len() / 4 * 4;
+        let gather = Gather {
+            indices,
+            velocities,
+        };
         for i in (0..full).step_by(4) {
-            let lanes = self.fill_block::<NORMALS, LIGHT>(
-                &mut start,
-                array4(&offsets[i + 1..i + 5]),
-                indices,
-                velocities,
-                array4(&positions[i..i + 4]),
-                array4(&own_velocities[i..i + 4]),
-                array4(&normals[i..i + 4]),
-            );
+            let block = Block {
+                row_ends: array4(&offsets[i + 1..i + 5]),
+                xs: array4(&positions[i..i + 4]),
+                vs: array4(&own_velocities[i..i + 4]),
+                ns: array4(&normals[i..i + 4]),
+            };
+            let lanes = self.fill_block::<NORMALS, LIGHT>(&mut start, &gather, &block);
             let value = self.block_values::<NORMALS, LIGHT>(&lanes).to_array();
             out[i..i + 4].copy_from_slice(&value);
         }
@@ -290,9 +277,13 @@ impl Prepared {
             let last_end = end_rest[end_rest.len() - 1];
             let ends = std::array::from_fn(|i| end_rest.get(i).copied().unwrap_or(last_end));
             let (xs, vs, ns) = (pad(x_rest), pad(v_rest), pad(n_rest));
-            let lanes = self.fill_block::<NORMALS, LIGHT>(
-                &mut start, &ends, indices, velocities, &xs, &vs, &ns,
-            );
+            let block = Block {
+                row_ends: &ends,
+                xs: &xs,
+                vs: &vs,
+                ns: &ns,
+            };
+            let lanes = self.fill_block::<NORMALS, LIGHT>(&mut start, &gather, &block);
             let value = self.block_values::<NORMALS, LIGHT>(&lanes).to_array();
             out_rest.copy_from_slice(&value[..out_rest.len()]);
         }
@@ -300,33 +291,26 @@ impl Prepared {
 
     /// Runs the per-node part for the four nodes of one block; `start` is the first node's row
     /// start and advances past the block.
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn fill_block<const NORMALS: bool, const LIGHT: u8>(
         &self,
         start: &mut usize,
-        row_ends: &[u32; 4],
-        indices: &[u32],
-        velocities: &[Vec3],
-        xs: &[Vec3; 4],
-        vs: &[Vec3; 4],
-        ns: &[Vec3; 4],
+        gather: &Gather<'_>,
+        block: &Block<'_>,
     ) -> Lanes {
         let mut lanes = Lanes::default();
         for lane in 0..4 {
-            let row_end = row_ends[lane] as usize;
-            let row = &indices[*start..row_end];
+            let row_end = block.row_ends[lane] as usize;
+            let row = &gather.indices[*start..row_end];
             *start = row_end;
-            self.node_lane::<NORMALS, LIGHT>(
-                &mut lanes, lane, row, velocities, xs[lane], vs[lane], ns[lane],
-            );
+            let node = (block.xs[lane], block.vs[lane], block.ns[lane]);
+            self.node_lane::<NORMALS, LIGHT>(&mut lanes, lane, row, gather.velocities, node);
         }
         lanes
     }
 
     /// The per-node part: the neighbour gather, and this node's data moved into `lane` of the
     /// block's component arrays.
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn node_lane<const NORMALS: bool, const LIGHT: u8>(
         &self,
@@ -334,9 +318,7 @@ impl Prepared {
         lane: usize,
         row: &[u32],
         velocities: &[Vec3],
-        x: Vec3,
-        v: Vec3,
-        n: Vec3,
+        (x, v, n): (Vec3, Vec3, Vec3),
     ) {
         // Local motion: k·v − Σ v_j = k · (v − mean); the 1/k folds into the denominator.
         let mut sum = Vec3::ZERO;
@@ -429,6 +411,21 @@ impl Prepared {
 #[inline(always)]
 fn sqrt4(v: Vec4) -> Vec4 {
     Vec4::from_array(v.to_array().map(f32::sqrt))
+}
+
+/// What the neighbour gather reads: the CSR neighbour indices and every node's velocity.
+struct Gather<'a> {
+    indices: &'a [u32],
+    velocities: &'a [Vec3],
+}
+
+/// The four nodes of one block: where each one's neighbour row ends, and its position,
+/// velocity and normal.
+struct Block<'a> {
+    row_ends: &'a [u32; 4],
+    xs: &'a [Vec3; 4],
+    vs: &'a [Vec3; 4],
+    ns: &'a [Vec3; 4],
 }
 
 /// Four nodes' vectors, one [`Vec4`] per node (node-major), filled by the gather; the block

@@ -2,6 +2,7 @@
 //! unoptimised transcription of the formula.
 
 use super::*;
+use crate::light::Light;
 use crate::neighbours::NeighbourLists;
 use proptest::prelude::*;
 
@@ -40,34 +41,32 @@ fn grid(side: u32, h: f32) -> (Vec<Vec3>, NeighbourLists) {
     (positions, lists)
 }
 
-fn camera_at(z: f32) -> Camera {
-    Camera::look_at(Vec3::new(0.0, 0.0, z), Vec3::ZERO, Vec3::Y, 1.0, 1280, 720).unwrap()
+fn camera_at(z: f32) -> View {
+    View::look_at(Vec3::new(0.0, 0.0, z), Vec3::ZERO, Vec3::Y, 1.0, 1280, 720).unwrap()
 }
 
-#[allow(clippy::too_many_arguments)]
+/// `view` lit by `light` (or unlit).
+fn lit(view: &View, light: Option<&Light>) -> View {
+    view.with_light(light.copied()).unwrap()
+}
+
+/// Evaluates every node of `nodes` seen by `view`.
 fn run(
-    camera: &Camera,
-    light: Option<&Light>,
+    view: &View,
     object: ObjectMotion,
     params: &BswdfParams,
-    positions: &[Vec3],
-    velocities: &[Vec3],
-    normals: Option<&[Vec3]>,
+    nodes: Nodes<'_>,
     lists: &NeighbourLists,
 ) -> Vec<f32> {
-    let view = View {
-        camera,
-        light,
+    let job = BswdfJob {
+        view,
         object,
         params,
+        nodes,
+        neighbours: lists.as_neighbours(),
     };
-    let nodes = Nodes {
-        positions,
-        velocities,
-        normals,
-    };
-    let mut out = vec![f32::NAN; positions.len()];
-    evaluate(&view, &nodes, &lists.as_neighbours(), &mut out).unwrap();
+    let mut out = vec![f32::NAN; nodes.positions.len()];
+    evaluate(&job, &mut out).unwrap();
     out
 }
 
@@ -89,12 +88,13 @@ fn rigid_translation_has_no_local_motion() {
         let g = GlobalMotion::new(&camera_at(3.0), &object, &params);
         let out = run(
             &camera_at(3.0),
-            None,
             object,
             &params,
-            &positions,
-            &velocities,
-            None,
+            Nodes {
+                positions: &positions,
+                velocities: &velocities,
+                normals: None,
+            },
             &lists,
         );
         for s in out {
@@ -113,12 +113,13 @@ fn a_node_moving_unlike_its_neighbours_scores_higher() {
     let object = ObjectMotion::mean_of(&positions, &velocities).unwrap();
     let out = run(
         &camera_at(3.0),
-        None,
         object,
         &params,
-        &positions,
-        &velocities,
-        None,
+        Nodes {
+            positions: &positions,
+            velocities: &velocities,
+            normals: None,
+        },
         &lists,
     );
     let far_corner = 0;
@@ -142,22 +143,24 @@ fn farther_camera_gives_lower_salience() {
     let object = ObjectMotion::mean_of(&positions, &velocities).unwrap();
     let near = run(
         &camera_at(2.0),
-        None,
         object,
         &params,
-        &positions,
-        &velocities,
-        None,
+        Nodes {
+            positions: &positions,
+            velocities: &velocities,
+            normals: None,
+        },
         &lists,
     );
     let far = run(
         &camera_at(8.0),
-        None,
         object,
         &params,
-        &positions,
-        &velocities,
-        None,
+        Nodes {
+            positions: &positions,
+            velocities: &velocities,
+            normals: None,
+        },
         &lists,
     );
     let moving = near.iter().zip(&far).filter(|(n, _)| **n > 0.05).count();
@@ -183,12 +186,13 @@ fn faster_object_lowers_the_cap() {
         let object = ObjectMotion::mean_of(&positions, &velocities).unwrap();
         let out = run(
             &camera_at(3.0),
-            None,
             object,
             &params,
-            &positions,
-            &velocities,
-            None,
+            Nodes {
+                positions: &positions,
+                velocities: &velocities,
+                normals: None,
+            },
             &lists,
         );
         (
@@ -213,22 +217,24 @@ fn moving_object_is_more_salient_than_a_still_one() {
     let object = |v: &[Vec3]| ObjectMotion::mean_of(&positions, v).unwrap();
     let a = run(
         &camera_at(3.0),
-        None,
         object(&still),
         &params,
-        &positions,
-        &still,
-        None,
+        Nodes {
+            positions: &positions,
+            velocities: &still,
+            normals: None,
+        },
         &lists,
     );
     let b = run(
         &camera_at(3.0),
-        None,
         object(&moving),
         &params,
-        &positions,
-        &moving,
-        None,
+        Nodes {
+            positions: &positions,
+            velocities: &moving,
+            normals: None,
+        },
         &lists,
     );
     assert!(a.iter().all(|&s| s == 0.0));
@@ -250,12 +256,13 @@ fn back_facing_and_grazing_surfels_count_less() {
         let normals = vec![normal; n];
         run(
             &cam,
-            None,
             object,
             &params,
-            &positions,
-            &velocities,
-            Some(&normals),
+            Nodes {
+                positions: &positions,
+                velocities: &velocities,
+                normals: Some(&normals),
+            },
             &lists,
         )
     };
@@ -265,12 +272,13 @@ fn back_facing_and_grazing_surfels_count_less() {
     let back_two = eval(-Vec3::Z, Sidedness::TwoSided);
     let none = run(
         &cam,
-        None,
         object,
         &BswdfParams::default(),
-        &positions,
-        &velocities,
-        None,
+        Nodes {
+            positions: &positions,
+            velocities: &velocities,
+            normals: None,
+        },
         &lists,
     );
     let centre = 40;
@@ -298,44 +306,47 @@ fn light_multiplies() {
         .collect();
     let dark = run(
         &cam,
-        None,
         object,
         &params,
-        &positions,
-        &velocities,
-        Some(&normals),
+        Nodes {
+            positions: &positions,
+            velocities: &velocities,
+            normals: Some(&normals),
+        },
         &lists,
     );
     let l = Vec3::new(1.0, 0.0, 1.0);
     let sun = Light::directional(l, 0.2, 0.8);
-    let lit = run(
-        &cam,
-        Some(&sun),
+    let sunlit = run(
+        &lit(&cam, Some(&sun)),
         object,
         &params,
-        &positions,
-        &velocities,
-        Some(&normals),
+        Nodes {
+            positions: &positions,
+            velocities: &velocities,
+            normals: Some(&normals),
+        },
         &lists,
     );
     for i in 0..positions.len() {
         let illu = 0.2 + 0.8 * normals[i].dot(l.normalize()).max(0.0);
-        assert!((lit[i] - dark[i] * illu).abs() < 1e-6);
+        assert!((sunlit[i] - dark[i] * illu).abs() < 1e-6);
     }
     // A point light far along the same direction agrees with the directional light.
     let lamp = Light::point(l * 1.0e4, 0.2, 0.8);
     let lamp_lit = run(
-        &cam,
-        Some(&lamp),
+        &lit(&cam, Some(&lamp)),
         object,
         &params,
-        &positions,
-        &velocities,
-        Some(&normals),
+        Nodes {
+            positions: &positions,
+            velocities: &velocities,
+            normals: Some(&normals),
+        },
         &lists,
     );
     for i in 0..positions.len() {
-        assert!((lamp_lit[i] - lit[i]).abs() < 1e-4);
+        assert!((lamp_lit[i] - sunlit[i]).abs() < 1e-4);
     }
     // Light from behind a two-sided surface leaves the seen side in ambient light.
     let two = BswdfParams {
@@ -346,22 +357,24 @@ fn light_multiplies() {
     let flat = vec![Vec3::Z; positions.len()];
     let plain = run(
         &cam,
-        None,
         object,
         &two,
-        &positions,
-        &velocities,
-        Some(&flat),
+        Nodes {
+            positions: &positions,
+            velocities: &velocities,
+            normals: Some(&flat),
+        },
         &lists,
     );
     let back_lit = run(
-        &cam,
-        Some(&behind),
+        &lit(&cam, Some(&behind)),
         object,
         &two,
-        &positions,
-        &velocities,
-        Some(&flat),
+        Nodes {
+            positions: &positions,
+            velocities: &velocities,
+            normals: Some(&flat),
+        },
         &lists,
     );
     for i in 0..positions.len() {
@@ -377,24 +390,26 @@ fn off_screen_nodes_keep_only_the_outside_weight() {
     let params = BswdfParams::default();
     let facing = run(
         &camera_at(3.0),
-        None,
         object,
         &params,
-        &positions,
-        &velocities,
-        None,
+        Nodes {
+            positions: &positions,
+            velocities: &velocities,
+            normals: None,
+        },
         &lists,
     );
     // Looking away from the cloth.
-    let away = Camera::new(Vec3::new(0.0, 0.0, 3.0), Vec3::Z, Vec3::Y, 1.0, 1280, 720).unwrap();
+    let away = View::new(Vec3::new(0.0, 0.0, 3.0), Vec3::Z, Vec3::Y, 1.0, 1280, 720).unwrap();
     let out = run(
         &away,
-        None,
         object,
         &params,
-        &positions,
-        &velocities,
-        None,
+        Nodes {
+            positions: &positions,
+            velocities: &velocities,
+            normals: None,
+        },
         &lists,
     );
     for (a, f) in out.iter().zip(&facing) {
@@ -418,12 +433,13 @@ fn isolated_nodes_move_relative_to_the_object() {
         };
         run(
             &camera_at(3.0),
-            None,
             object,
             &params,
-            &positions,
-            &velocities,
-            None,
+            Nodes {
+                positions: &positions,
+                velocities: &velocities,
+                normals: None,
+            },
             &lists,
         )
     };
@@ -442,25 +458,25 @@ fn chunks_reproduce_the_whole_bit_for_bit() {
     let cam = camera_at(2.0);
     let params = BswdfParams::default();
     let light = Light::point(Vec3::new(1.0, 2.0, 1.0), 0.25, 0.75);
-    let view = View {
-        camera: &cam,
-        light: Some(&light),
+    let view = lit(&cam, Some(&light));
+    let job = BswdfJob {
+        view: &view,
         object: ObjectMotion::mean_of(&positions, &velocities).unwrap(),
         params: &params,
+        nodes: Nodes {
+            positions: &positions,
+            velocities: &velocities,
+            normals: Some(&normals),
+        },
+        neighbours: lists.as_neighbours(),
     };
-    let nodes = Nodes {
-        positions: &positions,
-        velocities: &velocities,
-        normals: Some(&normals),
-    };
-    let nb = lists.as_neighbours();
     let mut whole = vec![0.0; positions.len()];
-    evaluate(&view, &nodes, &nb, &mut whole).unwrap();
+    evaluate(&job, &mut whole).unwrap();
     let mut pieces = vec![0.0; positions.len()];
     let mut first = 0;
     for chunk in pieces.chunks_mut(37) {
         let len = chunk.len();
-        evaluate_range(&view, &nodes, &nb, first, chunk).unwrap();
+        evaluate_range(&job, first, chunk).unwrap();
         first += len;
     }
     assert_eq!(whole, pieces);
@@ -475,18 +491,18 @@ fn errors_leave_the_output_untouched() {
     let cam = camera_at(3.0);
     let params = BswdfParams::default();
     let sun = Light::directional(Vec3::Z, 0.3, 0.7);
-    let good_view = View {
-        camera: &cam,
-        light: None,
+    let sunny = lit(&cam, Some(&sun));
+    let good = BswdfJob {
+        view: &cam,
         object: ObjectMotion::default(),
         params: &params,
+        nodes: Nodes {
+            positions: &positions,
+            velocities: &velocities,
+            normals: Some(&normals),
+        },
+        neighbours: lists.as_neighbours(),
     };
-    let good_nodes = Nodes {
-        positions: &positions,
-        velocities: &velocities,
-        normals: Some(&normals),
-    };
-    let nb = lists.as_neighbours();
     let sentinel = vec![-7.0f32; n];
     let mut out = sentinel.clone();
 
@@ -495,81 +511,72 @@ fn errors_leave_the_output_untouched() {
         facing_floor: f32::NAN,
         ..params
     };
-    let too_bright = Light::directional(Vec3::Z, 0.6, 0.6);
-    let cases: Vec<(View<'_>, Nodes<'_>)> = vec![
-        (
-            good_view,
-            Nodes {
+    let cases: Vec<BswdfJob<'_>> = vec![
+        BswdfJob {
+            nodes: Nodes {
                 velocities: short,
-                ..good_nodes
+                ..good.nodes
             },
-        ),
-        (
-            good_view,
-            Nodes {
+            ..good
+        },
+        BswdfJob {
+            nodes: Nodes {
                 normals: Some(&normals[2..]),
-                ..good_nodes
+                ..good.nodes
             },
-        ),
-        (
-            View {
-                object: ObjectMotion {
-                    centre: Vec3::NAN,
-                    velocity: Vec3::ZERO,
-                },
-                ..good_view
+            ..good
+        },
+        BswdfJob {
+            object: ObjectMotion {
+                centre: Vec3::NAN,
+                velocity: Vec3::ZERO,
             },
-            good_nodes,
-        ),
-        (
-            View {
-                params: &bad_params,
-                ..good_view
-            },
-            good_nodes,
-        ),
-        (
-            View {
-                light: Some(&sun),
-                ..good_view
-            },
-            Nodes {
+            ..good
+        },
+        BswdfJob {
+            params: &bad_params,
+            ..good
+        },
+        BswdfJob {
+            view: &sunny,
+            nodes: Nodes {
                 normals: None,
-                ..good_nodes
+                ..good.nodes
             },
-        ),
-        (
-            View {
-                light: Some(&too_bright),
-                ..good_view
-            },
-            good_nodes,
-        ),
+            ..good
+        },
     ];
-    for (view, nodes) in &cases {
-        assert!(evaluate(view, nodes, &nb, &mut out).is_err());
+    for job in &cases {
+        assert!(evaluate(job, &mut out).is_err());
         assert_eq!(out, sentinel);
     }
+    // A light too bright for [0, 1] cannot even be put into a view.
+    let too_bright = Light::directional(Vec3::Z, 0.6, 0.6);
+    assert!(cam.with_light(Some(too_bright)).is_err());
     // Wrong output length, wrong neighbour table, range past the end.
     let mut longer = vec![-7.0f32; n + 1];
-    assert!(evaluate(&good_view, &good_nodes, &nb, &mut longer).is_err());
+    assert!(evaluate(&good, &mut longer).is_err());
     assert!(longer.iter().all(|&s| s == -7.0));
     let other = NeighbourLists::from_undirected_edges(n - 1, &[]).unwrap();
+    let mismatched = BswdfJob {
+        neighbours: other.as_neighbours(),
+        ..good
+    };
     assert!(matches!(
-        evaluate(&good_view, &good_nodes, &other.as_neighbours(), &mut out),
+        evaluate(&mismatched, &mut out),
         Err(SalienceError::LengthMismatch {
             what: "neighbour table",
             ..
         })
     ));
     assert!(matches!(
-        evaluate_range(&good_view, &good_nodes, &nb, n - 3, &mut out[..5]),
+        evaluate_range(&good, n - 3, &mut out[..5]),
         Err(SalienceError::RangeOutOfBounds { .. })
     ));
     assert_eq!(out, sentinel);
     // A NaN camera cannot even be built.
     assert!(
-        Camera::new(
+        View::new(
             Vec3::ZERO,
             Vec3::new(f32::NAN, 0.0, 1.0),
             Vec3::Y,
@@ -580,20 +587,19 @@ fn errors_leave_the_output_untouched() {
         .is_err()
     );
     // The good case succeeds and overwrites everything.
-    evaluate(&good_view, &good_nodes, &nb, &mut out).unwrap();
+    evaluate(&good, &mut out).unwrap();
     assert!(out.iter().all(|s| (0.0..=1.0).contains(s)));
 }
 
 /// The documented formula, transcribed term by term through the public view measures and
 /// curves, with none of the kernel's algebraic shortcuts.
-fn reference(view: &View<'_>, nodes: &Nodes<'_>, nb: &Neighbours<'_>, i: usize) -> f32 {
-    let p = view.params;
-    let cam = view.camera;
-    let g = GlobalMotion::new(cam, &view.object, p);
+fn reference(job: &BswdfJob<'_>, i: usize) -> f32 {
+    let (p, cam, nodes, nb) = (job.params, job.view, &job.nodes, &job.neighbours);
+    let g = GlobalMotion::new(cam, &job.object, p);
     let x = nodes.positions[i];
     let row = nb.of(i);
     let reference_velocity = if row.is_empty() {
-        view.object.velocity
+        job.object.velocity
     } else {
         row.iter()
             .map(|&j| nodes.velocities[j as usize])
@@ -617,7 +623,7 @@ fn reference(view: &View<'_>, nodes: &Nodes<'_>, nb: &Neighbours<'_>, i: usize) 
             Sidedness::TwoSided => cos.abs(),
         };
         s *= p.facing_floor + (1.0 - p.facing_floor) * c.min(1.0);
-        if let Some(light) = view.light {
+        if let Some(light) = cam.light() {
             let l = match light.source {
                 LightSource::Directional { towards_light } => towards_light.normalize(),
                 LightSource::Point { position } => (position - x).normalize_or_zero(),
@@ -660,9 +666,9 @@ prop_compose! {
         base_max in 0.0f32..1.0,
         floor in 0.0f32..1.0,
         use_normals in any::<bool>(),
-    ) -> (Vec<Vec3>, Vec<Vec3>, Option<Vec<Vec3>>, Vec<Vec<u32>>, Camera, Option<Light>, ObjectMotion, BswdfParams) {
-        let camera = Camera::new(eye, look, Vec3::new(0.3, 1.0, -0.2), fov, 640, 480)
-            .or_else(|_| Camera::new(eye, look, Vec3::X, fov, 640, 480))
+    ) -> (Vec<Vec3>, Vec<Vec3>, Option<Vec<Vec3>>, Vec<Vec<u32>>, View, ObjectMotion, BswdfParams) {
+        let camera = View::new(eye, look, Vec3::new(0.3, 1.0, -0.2), fov, 640, 480)
+            .or_else(|_| View::new(eye, look, Vec3::X, fov, 640, 480))
             .unwrap();
         let light = match (light_kind, use_normals) {
             (_, false) | (0, _) => None,
@@ -676,7 +682,8 @@ prop_compose! {
             ..BswdfParams::default()
         };
         let object = ObjectMotion { centre: positions[0], velocity: object_v };
-        (positions, velocities, use_normals.then_some(normals), rows, camera, light, object, params)
+        let view = camera.with_light(light).unwrap();
+        (positions, velocities, use_normals.then_some(normals), rows, view, object, params)
     }
 }
 
@@ -684,7 +691,7 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(256))]
     #[test]
     fn random_scenes_stay_in_range_and_match_the_reference(
-        (positions, velocities, normals, rows, camera, light, object, params) in scene()
+        (positions, velocities, normals, rows, view, object, params) in scene()
     ) {
         let mut offsets = vec![0u32];
         let mut indices = Vec::new();
@@ -693,17 +700,22 @@ proptest! {
             offsets.push(indices.len() as u32);
         }
         let nb = Neighbours::new(&offsets, &indices, positions.len()).unwrap();
-        let view = View { camera: &camera, light: light.as_ref(), object, params: &params };
-        let nodes = Nodes {
-            positions: &positions,
-            velocities: &velocities,
-            normals: normals.as_deref(),
+        let job = BswdfJob {
+            view: &view,
+            object,
+            params: &params,
+            nodes: Nodes {
+                positions: &positions,
+                velocities: &velocities,
+                normals: normals.as_deref(),
+            },
+            neighbours: nb,
         };
         let mut out = vec![f32::NAN; positions.len()];
-        evaluate(&view, &nodes, &nb, &mut out).unwrap();
+        evaluate(&job, &mut out).unwrap();
         for (i, &s) in out.iter().enumerate() {
             prop_assert!(s.is_finite() && (0.0..=1.0).contains(&s), "node {i}: {s}");
-            let r = reference(&view, &nodes, &nb, i);
+            let r = reference(&job, i);
             prop_assert!((s - r).abs() < 2e-4, "node {i}: kernel {s} vs reference {r}");
         }
     }
@@ -721,12 +733,13 @@ fn non_finite_node_data_gives_zero_not_nan() {
     let params = BswdfParams::default();
     let out = run(
         &camera_at(3.0),
-        None,
         ObjectMotion::default(),
         &params,
-        &moved,
-        &velocities,
-        Some(&normals),
+        Nodes {
+            positions: &moved,
+            velocities: &velocities,
+            normals: Some(&normals),
+        },
         &lists,
     );
     assert!(out.iter().all(|s| (0.0..=1.0).contains(s)));

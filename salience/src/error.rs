@@ -3,9 +3,9 @@
 
 use thiserror::Error;
 
-/// Why a camera could not be built.
-#[derive(Debug, Clone, Copy, PartialEq, Error)]
-pub enum CameraError {
+/// Why a [`crate::View`] could not be built.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum ViewError {
     /// Position, forward, up or field of view holds a NaN or an infinity.
     #[error("camera has a non-finite position, direction or field of view")]
     NonFinite,
@@ -32,6 +32,15 @@ pub enum CameraError {
         /// The field of view that was given, in radians.
         fov_y_radians: f32,
     },
+    /// The near plane is not a finite distance greater than zero.
+    #[error("view near plane {near} must be finite and > 0")]
+    NearPlane {
+        /// The near plane that was given.
+        near: f32,
+    },
+    /// The light is invalid (non-finite, zero direction, terms outside [0, 1] or summing past 1).
+    #[error("view light: {0}")]
+    Light(SalienceError),
 }
 
 /// Why a salience evaluation (or a neighbour list, or a normal estimate) was refused.

@@ -1,5 +1,7 @@
-//! BSWDF salience: turns motion, lighting and the camera into a priority per node, and the view
-//! measures (distance, projected size, angular speed) that the cloth and the crowd share.
+//! The View and BSWDF salience: [`View`] is the one description of who looks (camera, viewport,
+//! near plane, optional light) with the view measures every slod crate uses (distance, pixels
+//! per unit at a point, projected radius, angular speed, projection, in-view tests), and the
+//! BSWDF turns motion, lighting and the view into a salience per node.
 //!
 //! The simulation-LOD paper (section 4) defines
 //! `BSWDF(ωC, ωL, dC, x) = Illu(ωL, x) ∘ (GlobalMotion(ωC, dC) ⊗ LocalMotion(ωC, dC, x))` but
@@ -14,21 +16,21 @@
 //! use glam::Vec3;
 //! use salience::*;
 //!
-//! let camera = Camera::look_at(Vec3::new(0.0, 1.0, 3.0), Vec3::ZERO, Vec3::Y, 1.0, 1280, 720)?;
+//! let view = View::look_at(Vec3::new(0.0, 1.0, 3.0), Vec3::ZERO, Vec3::Y, 1.0, 1280, 720)?;
 //! // Three nodes in a row; the middle one moves, its neighbours stand still.
 //! let positions = [Vec3::new(-0.1, 0.0, 0.0), Vec3::ZERO, Vec3::new(0.1, 0.0, 0.0)];
 //! let velocities = [Vec3::ZERO, Vec3::Y * 0.5, Vec3::ZERO];
 //! let lists = NeighbourLists::from_undirected_edges(3, &[[0, 1], [1, 2]])?;
 //! let params = BswdfParams::default();
-//! let view = View {
-//!     camera: &camera,
-//!     light: None,
+//! let job = BswdfJob {
+//!     view: &view,
 //!     object: ObjectMotion::mean_of(&positions, &velocities)?,
 //!     params: &params,
+//!     nodes: Nodes { positions: &positions, velocities: &velocities, normals: None },
+//!     neighbours: lists.as_neighbours(),
 //! };
-//! let nodes = Nodes { positions: &positions, velocities: &velocities, normals: None };
 //! let mut salience = [0.0; 3];
-//! evaluate(&view, &nodes, &lists.as_neighbours(), &mut salience)?;
+//! evaluate(&job, &mut salience)?;
 //! assert!(salience[1] > salience[0]);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -36,7 +38,6 @@
 #![warn(missing_docs)]
 
 pub mod bswdf;
-mod camera;
 mod curves;
 mod error;
 mod light;
@@ -46,11 +47,11 @@ mod normals;
 #[cfg(feature = "rayon")]
 mod parallel;
 mod params;
+mod view;
 
-pub use bswdf::{Nodes, View, evaluate, evaluate_range};
-pub use camera::{Camera, MIN_VIEW_DISTANCE};
+pub use bswdf::{BswdfJob, Nodes, evaluate, evaluate_range};
 pub use curves::{PursuitCap, ResponseCurve};
-pub use error::{CameraError, SalienceError};
+pub use error::{SalienceError, ViewError};
 pub use light::{Light, LightSource};
 pub use motion::{GlobalMotion, ObjectMotion};
 pub use neighbours::{NeighbourLists, Neighbours};
@@ -58,3 +59,4 @@ pub use normals::estimate_normals;
 #[cfg(feature = "rayon")]
 pub use parallel::{PARALLEL_CHUNK, evaluate_parallel};
 pub use params::{BswdfParams, Sidedness};
+pub use view::{DEFAULT_NEAR, MIN_VIEW_DISTANCE, View};

@@ -3,9 +3,9 @@
 
 use glam::Vec3;
 
-use crate::camera::Camera;
 use crate::error::SalienceError;
 use crate::params::BswdfParams;
+use crate::view::View;
 
 /// The object as a whole: a reference point and its velocity (typically the centre of mass and
 /// the centre-of-mass velocity). World units and world units per second.
@@ -88,9 +88,9 @@ pub struct GlobalMotion {
 }
 
 impl GlobalMotion {
-    /// The global terms for `object` seen by `camera`. Parameters are assumed valid.
-    pub fn new(camera: &Camera, object: &ObjectMotion, params: &BswdfParams) -> Self {
-        let omega = camera
+    /// The global terms for `object` seen by `view`. Parameters are assumed valid.
+    pub fn new(view: &View, object: &ObjectMotion, params: &BswdfParams) -> Self {
+        let omega = view
             .angular_speed(object.centre, object.velocity)
             .to_degrees()
             * params.display_angle_scale;
@@ -133,7 +133,7 @@ mod tests {
 
     #[test]
     fn faster_object_lower_cap_higher_base() {
-        let cam = Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 1.0, 640, 480).unwrap();
+        let cam = View::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 1.0, 640, 480).unwrap();
         let params = BswdfParams::default();
         let at = |speed: f32| {
             GlobalMotion::new(

@@ -3,10 +3,9 @@
 
 use rayon::prelude::*;
 
-use crate::bswdf::{Nodes, Prepared, View};
+use crate::bswdf::{BswdfJob, Prepared};
 use crate::error::SalienceError;
 use crate::motion::GlobalMotion;
-use crate::neighbours::Neighbours;
 
 /// Nodes per task: large enough that scheduling costs vanish (a chunk is ~30 µs of work), small
 /// enough that 100k nodes spread over a dozen cores.
@@ -17,12 +16,10 @@ pub const PARALLEL_CHUNK: usize = 4096;
 /// untouched. The result is identical to the single-threaded one (each node's value depends only
 /// on its own inputs).
 pub fn evaluate_parallel(
-    view: &View<'_>,
-    nodes: &Nodes<'_>,
-    neighbours: &Neighbours<'_>,
+    job: &BswdfJob<'_>,
     out: &mut [f32],
 ) -> Result<GlobalMotion, SalienceError> {
-    let n = nodes.positions.len();
+    let n = job.nodes.positions.len();
     if out.len() != n {
         return Err(SalienceError::LengthMismatch {
             what: "out",
@@ -30,11 +27,11 @@ pub fn evaluate_parallel(
             found: out.len(),
         });
     }
-    let prepared = Prepared::new(view, nodes, neighbours, 0, n)?;
+    let prepared = Prepared::new(job, 0, n)?;
     out.par_chunks_mut(PARALLEL_CHUNK)
         .enumerate()
         .for_each(|(chunk, part)| {
-            prepared.run(nodes, neighbours, chunk * PARALLEL_CHUNK, part);
+            prepared.run(job, chunk * PARALLEL_CHUNK, part);
         });
     Ok(prepared.global)
 }
@@ -42,7 +39,7 @@ pub fn evaluate_parallel(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{BswdfParams, Camera, NeighbourLists, ObjectMotion, evaluate};
+    use crate::{BswdfParams, NeighbourLists, Nodes, ObjectMotion, View, evaluate};
     use glam::Vec3;
 
     #[test]
@@ -56,29 +53,28 @@ mod tests {
             .collect();
         let edges: Vec<[u32; 2]> = (1..n as u32).map(|i| [i - 1, i]).collect();
         let lists = NeighbourLists::from_undirected_edges(n, &edges).unwrap();
-        let camera =
-            Camera::look_at(Vec3::new(0.5, 0.5, 2.0), Vec3::ZERO, Vec3::Y, 1.0, 800, 600).unwrap();
+        let view =
+            View::look_at(Vec3::new(0.5, 0.5, 2.0), Vec3::ZERO, Vec3::Y, 1.0, 800, 600).unwrap();
         let params = BswdfParams::default();
-        let view = View {
-            camera: &camera,
-            light: None,
+        let job = BswdfJob {
+            view: &view,
             object: ObjectMotion::mean_of(&positions, &velocities).unwrap(),
             params: &params,
+            nodes: Nodes {
+                positions: &positions,
+                velocities: &velocities,
+                normals: None,
+            },
+            neighbours: lists.as_neighbours(),
         };
-        let nodes = Nodes {
-            positions: &positions,
-            velocities: &velocities,
-            normals: None,
-        };
-        let nb = lists.as_neighbours();
         let mut serial = vec![0.0; n];
         let mut parallel = vec![0.0; n];
-        evaluate(&view, &nodes, &nb, &mut serial).unwrap();
-        evaluate_parallel(&view, &nodes, &nb, &mut parallel).unwrap();
+        evaluate(&job, &mut serial).unwrap();
+        evaluate_parallel(&job, &mut parallel).unwrap();
         assert_eq!(serial, parallel);
         assert!(serial.iter().any(|&s| s > 0.1));
         let mut short = vec![-1.0; n - 1];
-        assert!(evaluate_parallel(&view, &nodes, &nb, &mut short).is_err());
+        assert!(evaluate_parallel(&job, &mut short).is_err());
         assert!(short.iter().all(|&s| s == -1.0));
     }
 }

@@ -4,7 +4,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use glam::Vec3;
-use salience::{Camera, Light};
+use salience::View;
 use softbody::{DrawLink, TreeCutError, TreeCutSettings, TreeCutSoftBody};
 use treecut::{CutError, GridSpec, Hierarchy, NodeId, Op};
 
@@ -51,8 +51,6 @@ pub struct ClothStats {
 #[derive(Clone, Debug)]
 pub struct AdaptiveCloth {
     body: TreeCutSoftBody,
-    camera: Option<Camera>,
-    light: Option<Light>,
     feedback: Option<Feedback>,
     /// Last estimated unit normal per hierarchy node (the sign hint for the next estimate).
     node_normals: Vec<Vec3>,
@@ -86,8 +84,6 @@ impl AdaptiveCloth {
         let body = TreeCutSoftBody::new(hierarchy, cut, settings)?;
         Ok(AdaptiveCloth {
             body,
-            camera: None,
-            light: None,
             feedback: None,
             node_normals: vec![normal; len],
             node_radius,
@@ -158,36 +154,14 @@ impl AdaptiveCloth {
         self.feedback.as_ref().map(|f| &f.settings)
     }
 
-    /// The camera the salience stage uses, if set.
-    pub fn camera(&self) -> Option<&Camera> {
-        self.camera.as_ref()
-    }
-
-    /// Sets the camera the salience stage sees the cloth with.
-    pub fn set_camera(&mut self, camera: Camera) {
-        self.camera = Some(camera);
-    }
-
-    /// Sets or clears the light (without one the BSWDF is the animation features alone).
-    pub fn set_light(&mut self, light: Option<Light>) -> Result<(), ClothError> {
-        if let Some(l) = &light {
-            l.validate()?;
-        }
-        self.light = light;
-        Ok(())
-    }
-
-    /// Turns the feedback loop on with these settings (or off with `None`). Needs a camera.
-    /// Invalid settings are refused and the previous ones stay.
+    /// Turns the feedback loop on with these settings (or off with `None`). Invalid settings are
+    /// refused and the previous ones stay.
     pub fn set_feedback(&mut self, settings: Option<FeedbackSettings>) -> Result<(), ClothError> {
         let Some(settings) = settings else {
             self.feedback = None;
             return Ok(());
         };
         settings.validate()?;
-        if self.camera.is_none() {
-            return Err(ClothError::NoCamera);
-        }
         match &mut self.feedback {
             // Keep the controller's learned state when only other settings change.
             Some(f) if f.settings.budget == settings.budget => {
@@ -236,10 +210,11 @@ impl AdaptiveCloth {
         }
     }
 
-    /// Advances the simulation by one step; with feedback on, every `interval` steps (counting
-    /// from the first) also measures salience and begins the operations the evaluator chose.
-    /// Operations whose blend is done end inside the step.
-    pub fn step(&mut self) -> Result<(), ClothError> {
+    /// Advances the simulation by one step of the solver's `dt`; with feedback on, every
+    /// `interval` steps (counting from the first) also measures salience as seen through `view`
+    /// (the frame's camera, viewport and light; the cloth keeps no copy) and begins the
+    /// operations the evaluator chose. Operations whose blend is done end inside the step.
+    pub fn step(&mut self, view: &View) -> Result<(), ClothError> {
         let start = Instant::now();
         let mut eval_seconds = None;
         let due = self
@@ -261,7 +236,7 @@ impl AdaptiveCloth {
             self.interval_seconds = 0.0;
             self.interval_steps = 0;
             let t = Instant::now();
-            self.evaluate()?;
+            self.evaluate(view)?;
             eval_seconds = Some(t.elapsed().as_secs_f64());
         }
         self.body.step();
@@ -276,10 +251,9 @@ impl AdaptiveCloth {
         Ok(())
     }
 
-    /// Runs the feedback stage once now: salience, evaluator, begin operations. Refused (nothing
-    /// changed) without feedback settings or a camera.
-    pub fn evaluate(&mut self) -> Result<(), ClothError> {
-        let camera = self.camera.as_ref().ok_or(ClothError::NoCamera)?;
+    /// Runs the feedback stage once now, seeing the cloth through `view`: salience, evaluator,
+    /// begin operations. Refused (nothing changed) without feedback settings.
+    pub fn evaluate(&mut self, view: &View) -> Result<(), ClothError> {
         let Some(f) = self.feedback.as_mut() else {
             return Err(ClothError::Feedback {
                 field: "feedback",
@@ -290,8 +264,7 @@ impl AdaptiveCloth {
             &self.body,
             &mut self.node_normals,
             &self.node_radius,
-            camera,
-            self.light.as_ref(),
+            view,
             self.body.settings().solver.dt,
         )?;
         let h = self.body.hierarchy_arc().clone();

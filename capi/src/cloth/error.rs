@@ -14,9 +14,10 @@ pub enum ClothError {
     /// The salience stage refused its inputs or parameters.
     #[error("salience: {0}")]
     Salience(#[from] salience::SalienceError),
-    /// The camera is not usable (NaN, zero viewport, bad field of view, degenerate directions).
-    #[error("camera: {0}")]
-    Camera(#[from] salience::CameraError),
+    /// The view is not usable (NaN, zero viewport, bad field of view, degenerate directions,
+    /// bad near plane or light).
+    #[error("view: {0}")]
+    View(#[from] salience::ViewError),
     /// The evaluator refused its inputs.
     #[error("evaluator: {0}")]
     Eval(#[from] treecut::EvalError),
@@ -28,9 +29,6 @@ pub enum ClothError {
         /// What is wrong with it.
         reason: &'static str,
     },
-    /// Feedback needs a camera: set one before enabling it.
-    #[error("feedback needs a camera: call set_camera first")]
-    NoCamera,
     /// A buffer has the wrong length.
     #[error("buffer `{what}` holds {got} entries, {expected} needed")]
     BufferLength {

@@ -2,7 +2,7 @@
 //! per cut node, and the budget the evaluator spends.
 
 use glam::{Vec3, Vec4};
-use salience::{BswdfParams, Camera, Light, Neighbours, Nodes, ObjectMotion, Sidedness, View};
+use salience::{BswdfJob, BswdfParams, Neighbours, Nodes, ObjectMotion, Sidedness, View};
 use softbody::TreeCutSoftBody;
 use treecut::{Evaluator, EvaluatorSettings, MergeKey, NodeId};
 
@@ -258,8 +258,7 @@ impl Feedback {
         body: &TreeCutSoftBody,
         node_normals: &mut [Vec3],
         node_radius: &[f32],
-        camera: &Camera,
-        light: Option<&Light>,
+        view: &View,
         dt: f32,
     ) -> Result<(), ClothError> {
         let n = body.particle_count();
@@ -283,25 +282,25 @@ impl Feedback {
             &self.velocities,
             body.particle_masses(),
         )?;
-        let view = View {
-            camera,
-            light,
+        let job = BswdfJob {
+            view,
             object,
             params: &self.settings.params,
-        };
-        let input = Nodes {
-            positions: &self.positions,
-            velocities: &self.velocities,
-            normals: Some(&self.normals),
+            nodes: Nodes {
+                positions: &self.positions,
+                velocities: &self.velocities,
+                normals: Some(&self.normals),
+            },
+            neighbours: nbrs,
         };
         self.salience.resize(n, 0.0);
         if self.settings.parallel && n >= 2 * salience::PARALLEL_CHUNK {
-            salience::evaluate_parallel(&view, &input, &nbrs, &mut self.salience)?;
+            salience::evaluate_parallel(&job, &mut self.salience)?;
         } else {
-            salience::evaluate(&view, &input, &nbrs, &mut self.salience)?;
+            salience::evaluate(&job, &mut self.salience)?;
         }
         if self.settings.deformation_weight > 0.0 {
-            self.add_deformation(body, camera);
+            self.add_deformation(body, view);
         }
         let cut = body.cut();
         let h = body.hierarchy();
@@ -327,7 +326,7 @@ impl Feedback {
             self.memory[node.index()] = s;
             self.memory_stamp[node.index()] = self.evaluation;
             let px = if screen {
-                camera.pixels_per_unit(camera.distance(self.positions[i]))
+                view.pixels_per_unit(self.positions[i])
             } else {
                 1.0
             };
@@ -357,7 +356,7 @@ impl Feedback {
     }
 
     /// Adds each particle's weighted link strain to its motion salience.
-    fn add_deformation(&mut self, body: &TreeCutSoftBody, camera: &Camera) {
+    fn add_deformation(&mut self, body: &TreeCutSoftBody, view: &View) {
         let n = self.positions.len();
         self.strain.clear();
         self.strain.resize(n, (0.0, 0.0));
@@ -382,12 +381,12 @@ impl Feedback {
             if weight <= 0.0 {
                 continue;
             }
-            let view = if camera.is_in_view(x, params.view_margin) {
+            let seen = if view.is_in_view(x, params.view_margin) {
                 1.0
             } else {
                 params.outside_view_weight
             };
-            *s += self.settings.deformation_weight * (sum / weight) * view;
+            *s += self.settings.deformation_weight * (sum / weight) * seen;
         }
     }
 

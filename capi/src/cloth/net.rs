@@ -15,7 +15,7 @@
 use std::time::Instant;
 
 use glam::Vec3;
-use salience::Camera;
+use salience::View;
 use softbody::{DrawLink, Material, ReconstructionError, SolverSettings, TreeCutSettings};
 use treecut::{Cut, GridSpec, Hierarchy, NodeId};
 
@@ -38,8 +38,8 @@ pub struct NetConfig {
     pub body: TreeCutSettings,
     /// Feedback settings; each feedback run replaces the budget with its compression.
     pub feedback: FeedbackSettings,
-    /// The camera looking at the net.
-    pub camera: Camera,
+    /// The view looking at the net.
+    pub view: View,
     /// Compressions to run with feedback (fractions in (0, 1]).
     pub compressions: Vec<f32>,
     /// Compression at which the uniform and random cuts are run (None: skip them).
@@ -56,7 +56,7 @@ impl NetConfig {
     /// The paper's setup: a 65×65 net, 600 steps, feedback at 100%, 75% and 30%, baselines at
     /// 30%, snapshots after 45, 90 and 180 steps like its Figure 6.
     pub fn paper() -> Result<NetConfig, ClothError> {
-        let camera = Camera::look_at(
+        let view = View::look_at(
             Vec3::new(0.0, 0.6, 3.2),
             Vec3::new(0.0, -0.5, 0.0),
             Vec3::Y,
@@ -71,7 +71,7 @@ impl NetConfig {
             mass: 1.0,
             body: default_body_settings(),
             feedback: FeedbackSettings::default(),
-            camera,
+            view,
             compressions: vec![1.0, 0.75, 0.3],
             baseline_compression: Some(0.3),
             random_seed: 0x5EED,
@@ -294,7 +294,6 @@ pub fn run_net(config: &NetConfig, progress: Progress<'_>) -> Result<NetReport, 
             c.body_mut()
                 .pin_vertex(spec.vertex(i, j), spec.position(i, j))?;
         }
-        c.set_camera(config.camera);
         Ok(c)
     };
 
@@ -417,7 +416,7 @@ fn simulate(
     for step in 0..config.steps {
         let evaluations = cloth.stats().evaluations;
         let t = Instant::now();
-        cloth.step()?;
+        cloth.step(&config.view)?;
         let dt = t.elapsed().as_secs_f64();
         seconds += dt;
         step_ms.push((dt * 1e3) as f32);

@@ -1,15 +1,15 @@
 //! Tests of the adaptive cloth and the swinging-net experiment.
 
 use glam::Vec3;
-use salience::Camera;
+use salience::View;
 use softbody::TreeCutSettings;
 use treecut::{GridSpec, NodeId};
 
 use super::net::{NetConfig, NetRunKind, default_body_settings, run_net};
 use super::{AdaptiveCloth, ClothBudget, ClothError, FeedbackSettings};
 
-fn camera() -> Camera {
-    Camera::look_at(
+fn camera() -> View {
+    View::look_at(
         Vec3::new(0.0, 0.6, 3.2),
         Vec3::new(0.0, -0.5, 0.0),
         Vec3::Y,
@@ -20,7 +20,7 @@ fn camera() -> Camera {
     .unwrap()
 }
 
-/// A pinned net of `n`×`n` vertices, 2 m wide, starting at `level`, camera set.
+/// A pinned net of `n`×`n` vertices, 2 m wide, starting at `level` (step it with `camera()`).
 fn net(n: u32, level: u32, settings: TreeCutSettings) -> AdaptiveCloth {
     let spec = GridSpec::horizontal(n, n, 2.0 / (n - 1) as f32, 1.0);
     let mut c = AdaptiveCloth::grid(&spec, level, settings).unwrap();
@@ -29,7 +29,6 @@ fn net(n: u32, level: u32, settings: TreeCutSettings) -> AdaptiveCloth {
             .pin_vertex(spec.vertex(i, j), spec.position(i, j))
             .unwrap();
     }
-    c.set_camera(camera());
     c
 }
 
@@ -91,7 +90,7 @@ fn feedback_runs_are_bit_identical() {
         }))
         .unwrap();
         for _ in 0..150 {
-            c.step().unwrap();
+            c.step(&camera()).unwrap();
         }
         assert!(c.stats().refines + c.stats().coarses > 0);
         (
@@ -124,7 +123,7 @@ fn node_budget_is_reached_and_held() {
     .unwrap();
     let mut reached = None;
     for step in 0..120 {
-        c.step().unwrap();
+        c.step(&camera()).unwrap();
         let len = c.body().cut().len();
         match reached {
             None if len <= 1000 => reached = Some(step),
@@ -189,17 +188,12 @@ fn bad_feedback_input_is_refused_and_changes_nothing() {
             "refused settings changed the cloth"
         );
     }
-    // NaN cameras and zero viewports never become a camera.
+    // NaN cameras and zero viewports never become a view.
     assert!(matches!(
-        Camera::look_at(Vec3::NAN, Vec3::ZERO, Vec3::Y, 1.0, 640, 480),
-        Err(salience::CameraError::NonFinite)
+        View::look_at(Vec3::NAN, Vec3::ZERO, Vec3::Y, 1.0, 640, 480),
+        Err(salience::ViewError::NonFinite)
     ));
-    assert!(Camera::look_at(Vec3::Z, Vec3::ZERO, Vec3::Y, 1.0, 0, 480).is_err());
-    // Feedback needs a camera.
-    let spec = GridSpec::horizontal(5, 5, 0.1, 1.0);
-    let mut bare = AdaptiveCloth::grid(&spec, 0, default_body_settings()).unwrap();
-    assert_eq!(bare.set_feedback(Some(good)), Err(ClothError::NoCamera));
-    assert!(bare.feedback().is_none());
+    assert!(View::look_at(Vec3::Z, Vec3::ZERO, Vec3::Y, 1.0, 0, 480).is_err());
     // Explicit operations refused by the cut leave it as it was.
     let before = c.body().cut().active().to_vec();
     let leaf = before[0];
@@ -233,7 +227,6 @@ fn mesh_cloth_runs_the_loop() {
         AdaptiveCloth::from_mesh(&positions, &triangles, None, default_body_settings()).unwrap();
     c.body_mut().pin_vertex(0, positions[0]).unwrap();
     c.body_mut().pin_vertex(11, positions[11]).unwrap();
-    c.set_camera(camera());
     c.set_feedback(Some(FeedbackSettings {
         budget: ClothBudget::Compression(0.5),
         interval: 2,
@@ -241,7 +234,7 @@ fn mesh_cloth_runs_the_loop() {
     }))
     .unwrap();
     for _ in 0..120 {
-        c.step().unwrap();
+        c.step(&camera()).unwrap();
     }
     assert!(c.body().cut().len() <= 54);
     assert!(c.stats().coarses > 0);
@@ -266,7 +259,7 @@ fn time_budget_moves_the_node_budget() {
     }))
     .unwrap();
     for _ in 0..60 {
-        c.step().unwrap();
+        c.step(&camera()).unwrap();
     }
     // A target far below any achievable step time drives the budget down towards 1 node.
     let budget = c.stats().node_budget;

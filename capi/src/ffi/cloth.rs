@@ -318,9 +318,6 @@ fn build_error(e: ClothError) -> FfiError {
 /// An error from an operation on a live cloth: state conflicts are `REFUSED`.
 pub(crate) fn cloth_error(e: ClothError) -> FfiError {
     match e {
-        ClothError::NoCamera => {
-            FfiError::Refused("feedback needs a camera: call slod_world_set_camera first".into())
-        }
         ClothError::Body(TreeCutError::VertexOutOfRange { vertex, count }) => FfiError::invalid(
             "vertex",
             format!("{vertex} is out of range ({count} vertices)"),
@@ -489,7 +486,7 @@ pub(crate) fn cloth_mut(
 
 /// Advances a cloth by one step of `desc.solver.dt` seconds.
 ///
-/// The cloth first takes the world's current camera and light. With feedback on, every
+/// The cloth sees the world's current view (camera and light). With feedback on, every
 /// `interval` steps the step also measures salience and begins the refines and coarses the
 /// evaluator chose; transitions whose blend is done end inside the step. Threads: mutates the
 /// world; with feedback `parallel` the salience stage uses the world's worker threads. Errors:
@@ -503,15 +500,11 @@ pub unsafe extern "C" fn slod_cloth_step(world: *mut SlodWorld, cloth: SlodCloth
     boundary(|| {
         // SAFETY: caller contract: NULL or a live world used by this thread only.
         let world = unsafe { arg_mut(world, "world") }?;
-        let (camera, light) = (world.camera, world.light);
+        let view = world.view;
         let pool = world.pool.as_ref();
         let entry = world.cloths.get_mut(RawId::from(cloth), "cloth")?;
-        if let Some(c) = camera {
-            entry.cloth.set_camera(c.cloth);
-        }
-        entry.cloth.set_light(light).map_err(cloth_error)?;
         let c = &mut entry.cloth;
-        SlodWorld::run(pool, || c.step()).map_err(cloth_error)
+        SlodWorld::run(pool, || c.step(&view)).map_err(cloth_error)
     })
 }
 
@@ -709,10 +702,10 @@ impl SlodFeedbackDesc {
 
 /// Turns a cloth's feedback loop on (or changes its settings).
 ///
-/// From the next step on the cloth measures what the world's camera sees every `interval` steps
-/// and moves its cut under the budget. Threads: mutates the world. Errors:
-/// `SLOD_RESULT_INVALID_ARGUMENT` names the bad desc field; `SLOD_RESULT_REFUSED` if the world
-/// has no camera yet (call `slod_world_set_camera` first). Nothing changes on error.
+/// From the next step on the cloth measures what the world's view sees every `interval` steps
+/// and moves its cut under the budget (set the camera with `slod_world_set_camera`; until then
+/// the world's default view is used). Threads: mutates the world. Errors:
+/// `SLOD_RESULT_INVALID_ARGUMENT` names the bad desc field. Nothing changes on error.
 ///
 /// # Safety
 /// `world` NULL or a live world; `desc` NULL or valid.
@@ -728,11 +721,8 @@ pub unsafe extern "C" fn slod_cloth_set_feedback(
         // SAFETY: caller contract: NULL or a valid desc.
         let desc = *unsafe { arg(desc, "desc") }?;
         let parallel = world.parallel_allowed();
-        let camera = world.camera;
         let entry = cloth_mut(world, cloth)?;
         let settings = desc.to_settings(parallel)?;
-        let camera = camera.ok_or_else(|| cloth_error(ClothError::NoCamera))?;
-        entry.cloth.set_camera(camera.cloth);
         entry
             .cloth
             .set_feedback(Some(settings))

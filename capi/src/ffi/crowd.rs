@@ -286,10 +286,10 @@ pub unsafe extern "C" fn slod_crowd_set_lod(
 }
 
 /// Advances every character of a crowd by `dt` seconds and updates their poses under the
-/// crowd's LOD mode, seen by the world's camera; writes what the frame did to `*out_stats`.
+/// crowd's LOD mode, seen through the world's view; writes what the frame did to `*out_stats`.
 ///
-/// Until the world has a camera, crowds see from the origin with no view direction (everything
-/// visible, distances from the origin). Threads: mutates the world. Errors:
+/// Until the host sets a camera, the world's default view is used (see
+/// `slod_world_set_camera`). Threads: mutates the world. Errors:
 /// `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_INVALID_ARGUMENT` for `dt` not finite or outside
 /// [0, 3600] (nothing advanced).
 ///
@@ -305,16 +305,13 @@ pub unsafe extern "C" fn slod_crowd_advance(
     boundary(|| {
         // SAFETY: caller contract: NULL or a live world used by this thread only.
         let world = unsafe { arg_mut(world, "world") }?;
-        let camera = world.camera;
+        let view = world.view;
         let c = crowd_mut(world, crowd)?;
         in_range(dt, 0.0, 3600.0, "dt")?;
         if out_stats.is_null() {
             return Err(FfiError::Null("out_stats"));
         }
-        if let Some(cam) = camera {
-            c.set_camera(cam.crowd).map_err(crowd_error)?;
-        }
-        let s = c.advance(dt).map_err(crowd_error)?;
+        let s = c.advance(dt, &view).map_err(crowd_error)?;
         let stats = SlodCrowdStats {
             bones_interpolated: s.bones_interpolated,
             bones_held: s.bones_held,

@@ -1,10 +1,12 @@
-//! The world's camera and light, set by the host once per frame and used by every cloth's
-//! feedback loop and every crowd's LOD.
+//! The world's view: the camera and light the host sets (once per frame, typically), kept by
+//! the world as one [`salience::View`] and passed to every cloth's step and every crowd's
+//! advance. Before the host sets a camera the world sees through [`View::default`].
 
 use super::boundary::{arg, arg_mut, boundary};
 use super::result::{FfiError, SlodResult};
 use super::world::SlodWorld;
 use glam::Vec3;
+use salience::View;
 
 /// The host's camera: a pinhole with a vertical field of view, a viewport in pixels and a near
 /// plane. Plain data: the host fills every field (there is no default).
@@ -54,9 +56,9 @@ pub struct SlodLight {
 }
 
 impl SlodCamera {
-    /// The salience camera, or an error naming the bad field.
-    pub(crate) fn to_salience(self) -> Result<salience::Camera, FfiError> {
-        salience::Camera::new(
+    /// The view this camera describes (keeping `light`), or an error naming the bad field.
+    pub(crate) fn to_view(self, light: Option<salience::Light>) -> Result<View, FfiError> {
+        let view = View::new(
             Vec3::from(self.position),
             Vec3::from(self.forward),
             Vec3::from(self.up),
@@ -64,41 +66,13 @@ impl SlodCamera {
             self.viewport_width,
             self.viewport_height,
         )
-        .map_err(|e| FfiError::invalid("camera", e))
+        .map_err(|e| FfiError::invalid("camera", e))?;
+        let view = view
+            .with_near(self.near_plane)
+            .map_err(|e| FfiError::invalid("camera.near_plane", e))?;
+        view.with_light(light)
+            .map_err(|e| FfiError::invalid("light", e))
     }
-
-    /// The crowd's camera for an already validated salience camera (same eye, unit forward,
-    /// field of view, viewport), or an error naming a bad near plane.
-    pub(crate) fn to_animlod(
-        self,
-        checked: &salience::Camera,
-    ) -> Result<animlod::Camera, FfiError> {
-        if !(self.near_plane.is_finite() && self.near_plane > 0.0) {
-            return Err(FfiError::invalid(
-                "camera.near_plane",
-                "must be finite and > 0",
-            ));
-        }
-        let camera = animlod::Camera {
-            position: checked.position(),
-            forward: Some(checked.forward()),
-            fov_y: checked.fov_y_radians(),
-            viewport_height: checked.height_px() as f32,
-            aspect: checked.width_px() as f32 / checked.height_px() as f32,
-            near: self.near_plane,
-        };
-        camera
-            .validate()
-            .map_err(|e| FfiError::invalid("camera", e))?;
-        Ok(camera)
-    }
-}
-
-/// The world's camera in the form each system uses (validated once, when set).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct WorldCamera {
-    pub(crate) cloth: salience::Camera,
-    pub(crate) crowd: animlod::Camera,
 }
 
 impl SlodLight {
@@ -120,6 +94,10 @@ impl SlodLight {
 
 /// Sets the camera every cloth and crowd of the world sees from now on.
 ///
+/// Until a host sets one, a world sees from the origin along −Z with +Y up, a 60° vertical
+/// field of view, a 1920 × 1080 viewport and a 0.01 near plane. The light set by
+/// `slod_world_set_light` stays.
+///
 /// Invalid values (NaN, zero viewport, field of view outside (0, π), zero or parallel
 /// directions, near plane not > 0) return `SLOD_RESULT_INVALID_ARGUMENT` and the previous camera
 /// stays. Cloths pick it up at their next `slod_cloth_step`, crowds at their next
@@ -137,9 +115,7 @@ pub unsafe extern "C" fn slod_world_set_camera(
         let world = unsafe { arg_mut(world, "world") }?;
         // SAFETY: caller contract: NULL or a valid camera.
         let camera = *unsafe { arg(camera, "camera") }?;
-        let cloth = camera.to_salience()?;
-        let crowd = camera.to_animlod(&cloth)?;
-        world.camera = Some(WorldCamera { cloth, crowd });
+        world.view = camera.to_view(world.view.light().copied())?;
         Ok(())
     })
 }
@@ -162,7 +138,10 @@ pub unsafe extern "C" fn slod_world_set_light(
         let world = unsafe { arg_mut(world, "world") }?;
         // SAFETY: caller contract: NULL or a valid light.
         let light = *unsafe { arg(light, "light") }?;
-        world.light = light.to_salience()?;
+        world.view = world
+            .view
+            .with_light(light.to_salience()?)
+            .map_err(|e| FfiError::invalid("light", e))?;
         Ok(())
     })
 }

@@ -6,7 +6,6 @@ use std::sync::Arc;
 use super::arena::{Arena, RawId};
 use super::boundary::{arg, boundary, write_out};
 use super::result::{FfiError, SlodResult};
-use super::view::WorldCamera;
 use crate::cloth::AdaptiveCloth;
 
 /// Major version of the C ABI; a change breaks existing hosts.
@@ -77,10 +76,8 @@ pub struct SlodWorld {
     /// Worker threads of this world when the desc asked for two or more (else the global pool
     /// or none).
     pub(crate) pool: Option<rayon::ThreadPool>,
-    /// The host's camera as each system uses it, once set.
-    pub(crate) camera: Option<WorldCamera>,
-    /// The light cloth salience multiplies by, if any.
-    pub(crate) light: Option<salience::Light>,
+    /// The host's camera and light: the one view every cloth step and crowd advance is given.
+    pub(crate) view: salience::View,
     pub(crate) cloths: Arena<ClothEntry>,
     pub(crate) rigs: Arena<Arc<animlod::Rig>>,
     pub(crate) crowds: Arena<animlod::Crowd>,
@@ -192,8 +189,7 @@ pub unsafe extern "C" fn slod_world_create(
         let world = Box::new(SlodWorld {
             desc,
             pool,
-            camera: None,
-            light: None,
+            view: salience::View::default(),
             cloths: Arena::default(),
             rigs: Arena::default(),
             crowds: Arena::default(),

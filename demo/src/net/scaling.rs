@@ -171,19 +171,18 @@ fn feedback_point(
             .body_mut()
             .pin_vertex(spec.vertex(i, j), spec.position(i, j))?;
     }
-    cloth.set_camera(config.camera);
     cloth.set_feedback(Some(FeedbackSettings {
         budget: ClothBudget::Compression(compression),
         ..config.feedback
     }))?;
     for _ in 0..plan.feedback_warmup {
-        cloth.step()?;
+        cloth.step(&config.view)?;
     }
     let (mut seconds, mut nodes, mut links) = (0f64, 0f64, 0f64);
     let steps = plan.feedback_steps.max(1);
     for _ in 0..steps {
         let t = Instant::now();
-        cloth.step()?;
+        cloth.step(&config.view)?;
         seconds += t.elapsed().as_secs_f64();
         nodes += cloth.node_count() as f64;
         links += cloth.link_count() as f64;

@@ -41,9 +41,10 @@ pub(crate) const FADING: Vec3 = Vec3::new(1.0, 0.50, 0.0);
 /// A group link to a virtual parent (the parent's side of a blend).
 pub(crate) const GROUP: Vec3 = Vec3::new(0.80, 0.05, 0.70);
 
-/// The perspective of the experiment's camera, scaled to fit a panel.
+/// How a picture frames the scene: the perspective of the experiment's view from above, scaled to
+/// fit a panel.
 #[derive(Clone, Copy, Debug)]
-struct View {
+struct Framing {
     eye: Vec3,
     right: Vec3,
     up: Vec3,
@@ -53,12 +54,12 @@ struct View {
     panel: Vec2,
 }
 
-impl View {
+impl Framing {
     /// A view of every point of `clouds` from the experiment camera's side and distance but
     /// raised to [`ELEVATION_DEG`] above the cloth (the experiment's camera looks at the net
     /// almost edge-on, which hides where the nodes are), fitted into a panel with margins and
     /// room for the caption at the top.
-    fn fit(camera: &salience::Camera, clouds: &[&[Vec3]]) -> View {
+    fn fit(camera: &salience::View, clouds: &[&[Vec3]]) -> Framing {
         let count = clouds.iter().map(|c| c.len()).sum::<usize>().max(1);
         let centre = clouds.iter().flat_map(|c| c.iter()).sum::<Vec3>() / count as f32;
         let d = camera.position() - centre;
@@ -67,7 +68,7 @@ impl View {
         let towards_eye = side * e.cos() + Vec3::Y * e.sin();
         let forward = -towards_eye;
         let right = forward.cross(Vec3::Y).normalize_or(Vec3::X);
-        let mut view = View {
+        let mut view = Framing {
             eye: centre + towards_eye * d.length().max(1e-3),
             right,
             up: right.cross(forward),
@@ -149,7 +150,7 @@ fn vertex_normals(v: &[Vec3], size: usize) -> Vec<Vec3> {
 /// A shaded cloth surface, optionally with a wire every `wire_stride` grid lines and the
 /// simulated particles as dots.
 fn surface_panel(
-    view: &View,
+    view: &Framing,
     vertices: &[Vec3],
     size: usize,
     wire_stride: Option<usize>,
@@ -214,7 +215,7 @@ pub(crate) fn is_blending(l: &DrawLink) -> bool {
 }
 
 /// The links of a snapshot: plain links thin and grey, blending links thick and coloured.
-fn links_panel(view: &View, links: &[DrawLink]) -> Image {
+fn links_panel(view: &Framing, links: &[DrawLink]) -> Image {
     let mut r = Raster::new(PANEL.0 * SS, PANEL.1 * SS, Vec3::ONE);
     let w = SS as f32;
     for l in links.iter().filter(|l| !is_blending(l)) {
@@ -329,7 +330,7 @@ pub(crate) fn net_pictures(
         .iter()
         .flat_map(|(a, b, _)| [a.vertices.as_slice(), b.vertices.as_slice()])
         .collect();
-    let view = View::fit(&config.camera, &clouds);
+    let view = Framing::fit(&config.view, &clouds);
     let wire = Some(((size - 1) / 16).max(1));
 
     let mut files = Vec::new();

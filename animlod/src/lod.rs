@@ -1,0 +1,123 @@
+//! The LOD modes of a crowd and the camera ratio Ω ∈ [0, 1] of a character: 1 means full
+//! detail, 0 means no bone interpolates. The view measures they use come from
+//! [`salience::View`].
+
+use crate::error::{CrowdError, invalid};
+
+/// How a crowd chooses each character's detail.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LodMode {
+    /// Every animated bone of every character interpolates every frame (constant channels are
+    /// still never sampled).
+    Off,
+    /// The same Ω for every character (tests, analysis, user control).
+    Ratio(f32),
+    /// The thesis' distance range: Ω = 1 nearer than `min`, 0 farther than `max`, linear between.
+    Range {
+        /// Distance below which a character is at full detail.
+        min: f32,
+        /// Distance beyond which no bone of it interpolates.
+        max: f32,
+    },
+    /// Ω from the projected radius of the character's bounding sphere: `radius_px /
+    /// full_detail_px`, capped at 1, and 0 below `freeze_below_px`. Because a joint's on-screen
+    /// speed is proportional to the projected size while the scheduler's hold time is inversely
+    /// proportional to Ω, the pixel error of a hold stays about the same at every distance.
+    PixelSize {
+        /// Projected radius (pixels) at and above which a character is at full detail.
+        full_detail_px: f32,
+        /// Projected radius (pixels) below which a character does not animate at all (0 to never
+        /// freeze a visible character).
+        freeze_below_px: f32,
+    },
+    /// A crowd-wide budget of bone interpolations per frame, spent on the bones whose hold has
+    /// built up the most estimated on-screen error (projected size × priority integrated over
+    /// the time held). Bones whose score is zero (invisible characters) never take budget.
+    Budget {
+        /// Bone interpolations allowed per frame over all characters.
+        bone_updates_per_frame: u32,
+    },
+    /// Beyond the thesis: hold a bone only while the on-screen error its hold causes stays under
+    /// a bound. Each animated bone integrates its measured hold error rate
+    /// ([`crate::SubPriorities::hold_error_rate`]) over the time it holds, converts it to pixels
+    /// at the character's nearest visible depth, and interpolates as soon as that reaches
+    /// `max_error_px`. Invisible characters do not animate.
+    ErrorBound {
+        /// Largest on-screen drift (pixels) a single held bone may cause.
+        max_error_px: f32,
+    },
+}
+
+impl LodMode {
+    /// Checks the parameters: finite, `0 ≤ min < max`, `full_detail_px > 0`,
+    /// `0 ≤ freeze_below_px < full_detail_px`, Ω in [0, 1].
+    pub fn validate(&self) -> Result<(), CrowdError> {
+        match *self {
+            LodMode::Off | LodMode::Budget { .. } => Ok(()),
+            LodMode::Ratio(o) if (0.0..=1.0).contains(&o) => Ok(()),
+            LodMode::Ratio(_) => Err(invalid("ratio", "must be in [0, 1]")),
+            LodMode::Range { min, max }
+                if min.is_finite() && max.is_finite() && min >= 0.0 && min < max =>
+            {
+                Ok(())
+            }
+            LodMode::Range { .. } => Err(invalid("range", "needs finite 0 <= min < max")),
+            LodMode::PixelSize {
+                full_detail_px: f,
+                freeze_below_px: z,
+            } if f.is_finite() && f > 0.0 && z.is_finite() && z >= 0.0 && z < f => Ok(()),
+            LodMode::PixelSize { .. } => Err(invalid(
+                "pixel size",
+                "needs finite 0 <= freeze_below_px < full_detail_px",
+            )),
+            LodMode::ErrorBound { max_error_px: e } if e.is_finite() && e > 0.0 => Ok(()),
+            LodMode::ErrorBound { .. } => {
+                Err(invalid("max_error_px", "must be finite and positive"))
+            }
+        }
+    }
+}
+
+/// The thesis' camera ratio from a distance range, the right way round: 1 at or nearer than
+/// `min`, 0 at or beyond `max`, `(max − d) / (max − min)` between. (The thesis prints
+/// `(d − min) / (max − min)`, which grows with distance, against its own text that Ω must shrink
+/// as the character moves away.)
+#[inline]
+pub fn omega_from_distance(distance: f32, min: f32, max: f32) -> f32 {
+    ((max - distance) / (max - min)).clamp(0.0, 1.0)
+}
+
+/// The camera ratio from a projected radius in pixels (see [`LodMode::PixelSize`]).
+#[inline]
+pub fn omega_from_pixels(radius_px: f32, full_detail_px: f32, freeze_below_px: f32) -> f32 {
+    if radius_px < freeze_below_px || radius_px <= 0.0 {
+        0.0
+    } else {
+        (radius_px / full_detail_px).min(1.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ratios_and_validation() {
+        assert_eq!(omega_from_distance(100.0, 200.0, 1700.0), 1.0);
+        assert_eq!(omega_from_distance(2000.0, 200.0, 1700.0), 0.0);
+        assert!((omega_from_distance(950.0, 200.0, 1700.0) - 0.5).abs() < 1e-6);
+        assert_eq!(omega_from_pixels(500.0, 200.0, 2.0), 1.0);
+        assert_eq!(omega_from_pixels(1.0, 200.0, 2.0), 0.0);
+        assert!((omega_from_pixels(50.0, 200.0, 2.0) - 0.25).abs() < 1e-6);
+        assert!(LodMode::Range { min: 5.0, max: 5.0 }.validate().is_err());
+        assert!(LodMode::Ratio(1.5).validate().is_err());
+        assert!(
+            LodMode::PixelSize {
+                full_detail_px: 10.0,
+                freeze_below_px: 20.0
+            }
+            .validate()
+            .is_err()
+        );
+    }
+}
