@@ -381,7 +381,7 @@ impl Clip {
                         } else {
                             &mut scales
                         };
-                        push_channel(blocks, g, ch.interpolation, bone.0, v);
+                        push_channel(blocks, g, ch.interpolation, bone.raw(), v);
                     }
                 }
                 Keys::Rotation(mut v) => {
@@ -415,7 +415,7 @@ impl Clip {
                     } else {
                         animated_mask[bone.index()] = 1;
                         let g = group_of(&mut groups, &ch.times);
-                        push_channel(&mut rotations, g, ch.interpolation, bone.0, v);
+                        push_channel(&mut rotations, g, ch.interpolation, bone.raw(), v);
                     }
                 }
             }
@@ -502,7 +502,7 @@ impl Clip {
 
     /// Bones with at least one animated (non-constant) channel, parents first.
     pub fn animated_bones(&self) -> impl ExactSizeIterator<Item = BoneId> + '_ {
-        self.animated.iter().map(|&b| BoneId(b))
+        self.animated.iter().map(|&b| BoneId::from_raw(b))
     }
 
     /// Number of bones with at least one animated channel.
@@ -669,7 +669,7 @@ mod tests {
 
     fn ch(bone: u32, interpolation: Interpolation, times: &[f32], keys: Keys) -> ChannelDesc {
         ChannelDesc {
-            bone: BoneId(bone),
+            bone: BoneId::from_raw(bone),
             interpolation,
             times: times.to_vec(),
             keys,

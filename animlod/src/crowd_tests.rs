@@ -104,20 +104,21 @@ fn refused_inputs_leave_the_crowd_unchanged() {
             .is_err()
     );
     assert_eq!(
-        c.add_character(Vec3::ZERO, ClipId(99)).unwrap_err(),
-        CrowdError::UnknownClip(ClipId(99))
+        c.add_character(Vec3::ZERO, ClipId::from_raw(99))
+            .unwrap_err(),
+        CrowdError::UnknownClip(ClipId::from_raw(99))
     );
     assert!(c.set_position(ids[0], Vec3::INFINITY).is_err());
-    assert!(c.set_clip(ids[0], ClipId(99)).is_err());
+    assert!(c.set_clip(ids[0], ClipId::from_raw(99)).is_err());
     assert!(c.set_time(ids[0], f32::NAN).is_err());
     assert!(c.set_speed(ids[0], -1.0).is_err());
     assert_eq!(
-        c.skinning_matrices(ids[0], SkinId(5), &mut out)
+        c.skinning_matrices(ids[0], SkinId::from_raw(5), &mut out)
             .unwrap_err(),
-        CrowdError::UnknownSkin(SkinId(5))
+        CrowdError::UnknownSkin(SkinId::from_raw(5))
     );
     assert_eq!(
-        c.skinning_matrices(ids[0], SkinId(0), &mut out)
+        c.skinning_matrices(ids[0], SkinId::from_raw(0), &mut out)
             .unwrap_err(),
         CrowdError::BufferTooSmall {
             needed: 63,
@@ -143,8 +144,8 @@ fn refused_inputs_leave_the_crowd_unchanged() {
         c.set_priority_weights(PriorityWeights::from_array([1.0, -1.0, 0.0, 0.0, 0.0, 0.0]))
             .is_err()
     );
-    assert!(c.set_user_priority(BoneId(500), 1.0).is_err());
-    assert!(c.set_user_priority(BoneId(0), f32::NAN).is_err());
+    assert!(c.set_user_priority(BoneId::from_raw(500), 1.0).is_err());
+    assert!(c.set_user_priority(BoneId::from_raw(0), f32::NAN).is_err());
     assert!(
         c.set_scheduler(SchedulerParams {
             period_scale: -1.0,
@@ -184,7 +185,8 @@ fn full_detail_matches_an_independent_reference() {
     // Skinning matrices are model × inverse bind.
     let mut out = vec![Mat4::IDENTITY; 63];
     assert_eq!(
-        c.skinning_matrices(ids[0], SkinId(0), &mut out).unwrap(),
+        c.skinning_matrices(ids[0], SkinId::from_raw(0), &mut out)
+            .unwrap(),
         63
     );
     let skin = &rig.skins()[0];

@@ -2,57 +2,19 @@
 
 use std::fmt;
 
-macro_rules! index_newtype {
-    ($(#[$doc:meta])* $name:ident, $short:literal) => {
-        $(#[$doc])*
-        #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
-        pub struct $name(pub u32);
-
-        impl $name {
-            /// The id of the item stored at `index`.
-            #[inline]
-            pub fn new(index: usize) -> Self {
-                debug_assert!(index <= u32::MAX as usize);
-                $name(index as u32)
-            }
-
-            /// The item's index, for indexing per-item arrays.
-            #[inline]
-            pub fn index(self) -> usize {
-                self.0 as usize
-            }
-        }
-
-        impl fmt::Debug for $name {
-            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-                write!(f, concat!($short, "{}"), self.0)
-            }
-        }
-
-        impl fmt::Display for $name {
-            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-                write!(f, concat!($short, "{}"), self.0)
-            }
-        }
-    };
-}
-
-index_newtype!(
+slod_core::index_type! {
     /// A bone of a [`crate::Skeleton`]. Bones are stored parents first, so a bone's id is larger
     /// than its parent's.
-    BoneId,
-    "bone "
-);
-index_newtype!(
+    pub struct BoneId, "bone "
+}
+slod_core::index_type! {
     /// A clip (one glTF animation) of a [`crate::Rig`].
-    ClipId,
-    "clip "
-);
-index_newtype!(
+    pub struct ClipId, "clip "
+}
+slod_core::index_type! {
     /// A skin of a [`crate::Rig`]: a list of joints with their inverse bind matrices.
-    SkinId,
-    "skin "
-);
+    pub struct SkinId, "skin "
+}
 
 /// A character of a [`crate::Crowd`]: a slot index and the generation of the slot when the
 /// character was added. A removed character's id goes stale and is refused from then on, even

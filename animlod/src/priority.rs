@@ -204,7 +204,7 @@ impl SubPriorities {
             .max()
             .unwrap_or(0);
         let max_depth = skeleton.max_depth();
-        let bone = |b: u32| crate::BoneId(b);
+        let bone = |b: u32| crate::BoneId::from_raw(b);
         let descendants = clip
             .animated
             .iter()
@@ -448,13 +448,13 @@ mod tests {
             vec![
                 // Root turns 0.1 then 0.4 rad; bone 2 turns 0.4 then not at all, written as −q.
                 ChannelDesc {
-                    bone: BoneId(0),
+                    bone: BoneId::from_raw(0),
                     interpolation: Interpolation::Linear,
                     times: t.clone(),
                     keys: rot([0.0, 0.1, 0.5]),
                 },
                 ChannelDesc {
-                    bone: BoneId(2),
+                    bone: BoneId::from_raw(2),
                     interpolation: Interpolation::Linear,
                     times: t.clone(),
                     keys: Keys::Rotation(vec![

@@ -62,7 +62,7 @@ impl Skeleton {
             match b.parent {
                 Some(p) if p.index() >= i => return Err(BuildError::ParentNotBefore { bone }),
                 Some(p) => {
-                    parents.push(p.0);
+                    parents.push(p.raw());
                     depth.push(depth[p.index()] + 1);
                 }
                 None => {
@@ -139,7 +139,7 @@ impl Skeleton {
     #[inline]
     pub fn parent(&self, bone: BoneId) -> Option<BoneId> {
         let p = self.parents[bone.index()];
-        (p != NO_PARENT).then_some(BoneId(p))
+        (p != NO_PARENT).then_some(BoneId::from_raw(p))
     }
 
     /// The parent array (`u32::MAX` marks a root), for fast loops.
@@ -249,7 +249,7 @@ mod tests {
     fn bone(name: &str, parent: Option<u32>, y: f32) -> BoneDesc {
         BoneDesc {
             name: name.into(),
-            parent: parent.map(BoneId),
+            parent: parent.map(BoneId::from_raw),
             rest: Transform {
                 translation: Vec3::new(0.0, y, 0.0),
                 ..Transform::IDENTITY
@@ -268,11 +268,11 @@ mod tests {
             bone("arm", Some(1), 0.2),
         ])
         .unwrap();
-        assert_eq!(s.descendant_count(BoneId(0)), 3);
-        assert_eq!(s.descendant_count(BoneId(1)), 2);
-        assert_eq!(s.depth(BoneId(2)), 2);
+        assert_eq!(s.descendant_count(BoneId::from_raw(0)), 3);
+        assert_eq!(s.descendant_count(BoneId::from_raw(1)), 2);
+        assert_eq!(s.depth(BoneId::from_raw(2)), 2);
         assert_eq!(s.max_depth(), 2);
-        assert_eq!(s.find("arm"), Some(BoneId(3)));
+        assert_eq!(s.find("arm"), Some(BoneId::from_raw(3)));
         let m = s.rest_model_matrices();
         assert!((m[2].w_axis.y - 2.5).abs() < 1e-6);
     }
@@ -284,7 +284,12 @@ mod tests {
             BuildError::EmptySkeleton
         );
         let err = Skeleton::new(vec![bone("a", Some(0), 0.0)]).unwrap_err();
-        assert_eq!(err, BuildError::ParentNotBefore { bone: BoneId(0) });
+        assert_eq!(
+            err,
+            BuildError::ParentNotBefore {
+                bone: BoneId::from_raw(0)
+            }
+        );
         let mut b = bone("a", None, f32::NAN);
         assert!(matches!(
             Skeleton::new(vec![b.clone()]),

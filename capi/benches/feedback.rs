@@ -39,7 +39,7 @@ fn bench(c: &mut Criterion) {
     ] {
         let mut cl = cloth(&config, compression);
         g.bench_function(format!("step/{name}"), |b| {
-            b.iter(|| cl.step(&config.view).unwrap())
+            b.iter(|| cl.step(&config.view).unwrap());
         });
     }
     for compression in [1.0, 0.3] {

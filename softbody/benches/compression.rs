@@ -36,7 +36,7 @@ fn corners() -> [u32; 4] {
 
 fn scattered(h: &Hierarchy, level: u32) -> Vec<NodeId> {
     let mut v: Vec<NodeId> = h.nodes_at_level(level).collect();
-    v.sort_by_key(|p| p.0.wrapping_mul(2654435761) >> 8);
+    v.sort_by_key(|p| p.raw().wrapping_mul(2654435761) >> 8);
     v
 }
 

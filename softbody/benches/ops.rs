@@ -30,7 +30,7 @@ fn net(n: u32) -> (TreeCutSoftBody, Vec<NodeId>) {
     // Level-1 nodes in a scattered (multiplicative hash) order.
     let level1: Vec<NodeId> = tc.hierarchy().nodes_at_level(1).collect();
     let mut order: Vec<NodeId> = level1.clone();
-    order.sort_by_key(|p| (p.0.wrapping_mul(2654435761)) >> 8);
+    order.sort_by_key(|p| (p.raw().wrapping_mul(2654435761)) >> 8);
     (tc, order)
 }
 

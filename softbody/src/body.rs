@@ -214,7 +214,9 @@ impl SoftBody {
 
     /// Particles currently driven as kinematic anchors.
     pub fn anchored_particles(&self) -> impl Iterator<Item = ParticleId> + '_ {
-        self.anchors.iter().map(|a| ParticleId(a.particle))
+        self.anchors
+            .iter()
+            .map(|a| ParticleId::from_raw(a.particle))
     }
 
     /// Stops driving a particle as an anchor (it stays pinned where it is).
@@ -291,7 +293,7 @@ impl SoftBody {
                 value: weight,
             });
         }
-        Ok(self.links.add(a.0, b.0, rest, compliance, weight))
+        Ok(self.links.add(a.raw(), b.raw(), rest, compliance, weight))
     }
 
     pub(crate) fn add_link_raw(
@@ -369,12 +371,15 @@ impl SoftBody {
 
     /// The links incident to a particle (O(degree)).
     pub fn incident_links(&self, p: ParticleId) -> impl ExactSizeIterator<Item = LinkId> + '_ {
-        self.links.incident(p.0).iter().map(|&(l, _)| l)
+        self.links.incident(p.raw()).iter().map(|&(l, _)| l)
     }
 
     /// The particles linked to `p` by plain links (O(degree), without touching the links).
     pub fn neighbours(&self, p: ParticleId) -> impl ExactSizeIterator<Item = ParticleId> + '_ {
-        self.links.incident(p.0).iter().map(|&(_, q)| ParticleId(q))
+        self.links
+            .incident(p.raw())
+            .iter()
+            .map(|&(_, q)| ParticleId::from_raw(q))
     }
 
     /// Incident links with the particle at the other end.
@@ -387,7 +392,7 @@ impl SoftBody {
     /// no longer refer to `p`.
     pub fn remove_particle(&mut self, p: ParticleId) -> Result<Option<ParticleId>, SoftBodyError> {
         let i = self.check_particle(p)?;
-        if self.groups.references(p.0) {
+        if self.groups.references(p.raw()) {
             return Err(SoftBodyError::BadSetting(
                 "particle is still part of a group link",
             ));
@@ -414,7 +419,7 @@ impl SoftBody {
                 }
             }
             self.groups.rename_particle(last, p);
-            Some(ParticleId(last))
+            Some(ParticleId::from_raw(last))
         } else {
             None
         }

@@ -50,7 +50,7 @@ fn bad_input_is_refused() {
     let p = b.add_particle(Vec3::ZERO, 1.0).unwrap();
     let q = b.add_particle(Vec3::X, 1.0).unwrap();
     assert!(matches!(
-        b.add_link(p, ParticleId(7), 1.0, 0.0),
+        b.add_link(p, ParticleId::from_raw(7), 1.0, 0.0),
         Err(SoftBodyError::OutOfRange { .. })
     ));
     assert!(matches!(
@@ -119,7 +119,7 @@ fn bad_input_is_refused() {
 fn runs_are_bit_identical() {
     let run = || {
         let (_, mut b) = net(33);
-        b.set_external_force(ParticleId(500), Vec3::new(0.3, 0.0, -0.2))
+        b.set_external_force(ParticleId::from_raw(500), Vec3::new(0.3, 0.0, -0.2))
             .unwrap();
         for _ in 0..60 {
             b.step();
@@ -139,7 +139,7 @@ fn deleting_links_does_not_change_survivors() {
     let victims: Vec<LinkId> = kept
         .links()
         .map(|l| l.id)
-        .filter(|l| l.0 % 7 == 3)
+        .filter(|l| l.raw() % 7 == 3)
         .collect();
     assert!(victims.len() > 500);
     for &l in &victims {
@@ -165,11 +165,11 @@ fn deleting_links_does_not_change_survivors() {
 fn removing_particles_keeps_links_consistent() {
     let (_, mut b) = net(9);
     let before = b.particle_count();
-    let moved = b.remove_particle(ParticleId(10)).unwrap();
-    assert_eq!(moved, Some(ParticleId(before as u32 - 1)));
+    let moved = b.remove_particle(ParticleId::from_raw(10)).unwrap();
+    assert_eq!(moved, Some(ParticleId::from_raw(before as u32 - 1)));
     b.check_links();
     assert_eq!(
-        b.remove_particle(ParticleId(b.particle_count() as u32 - 1))
+        b.remove_particle(ParticleId::from_raw(b.particle_count() as u32 - 1))
             .unwrap(),
         None
     );
@@ -244,7 +244,7 @@ fn chain_compliance_is_resolution_independent() {
             )
             .unwrap();
         }
-        b.set_pinned(ParticleId(0), true).unwrap();
+        b.set_pinned(ParticleId::from_raw(0), true).unwrap();
         b.set_external_force(ParticleId::new(n), Vec3::new(0.0, -10.0, 0.0))
             .unwrap();
         for _ in 0..600 {
@@ -280,7 +280,7 @@ fn membrane_compliance_is_resolution_independent() {
         };
         let mut b = g.build(s).unwrap();
         for i in 0..n {
-            b.set_pinned(ParticleId(i), true).unwrap();
+            b.set_pinned(ParticleId::from_raw(i), true).unwrap();
         }
         for _ in 0..400 {
             b.step();
@@ -288,7 +288,7 @@ fn membrane_compliance_is_resolution_independent() {
         // Mean stretch of the bottom row below its rest height (-1).
         let bottom = (n - 1) * n..n * n;
         bottom
-            .map(|i| -b.position(ParticleId(i)).y - 1.0)
+            .map(|i| -b.position(ParticleId::from_raw(i)).y - 1.0)
             .sum::<f32>()
             / n as f32
     };
@@ -333,7 +333,7 @@ fn swinging_net_stays_finite_and_settles() {
         .fold(0.0f32, f32::max);
     assert!(moved < 1e-3 && speed < 0.05, "moved {moved} speed {speed}");
     // It hangs below the pinned corners.
-    let mid = b.position(ParticleId(16 * 33 + 16));
+    let mid = b.position(ParticleId::from_raw(16 * 33 + 16));
     assert!(mid.y < -0.1, "{mid}");
 }
 

@@ -57,7 +57,7 @@ impl GridCloth {
     /// Index of the four corner vertices (for pinning a "swinging net").
     pub fn corners(&self) -> [ParticleId; 4] {
         let (c, r) = (self.cols, self.rows);
-        [0, c - 1, (r - 1) * c, r * c - 1].map(ParticleId)
+        [0, c - 1, (r - 1) * c, r * c - 1].map(ParticleId::from_raw)
     }
 
     /// Builds the body.
@@ -292,7 +292,9 @@ fn add_links(
 ) {
     for (pairs, is_bend) in [(stretch, false), (bend, true)] {
         for &(a, b) in pairs {
-            let rest = (body.position(ParticleId(a)) - body.position(ParticleId(b))).length();
+            let rest = (body.position(ParticleId::from_raw(a))
+                - body.position(ParticleId::from_raw(b)))
+            .length();
             let c = if is_bend {
                 material.bend(rest)
             } else {

@@ -50,7 +50,7 @@ impl Batch {
         blk.compliance[k] = compliance;
         blk.weight[k] = weight;
         blk.lambda[k] = 0.0;
-        blk.id[k] = id.0;
+        blk.id[k] = id.raw();
         self.len += 1;
         i as u32
     }
@@ -60,7 +60,7 @@ impl Batch {
         let moved = if i != last {
             let src = self.blocks[last / 4];
             self.blocks[i / 4].copy_lane(i % 4, &src, last % 4);
-            Some(LinkId(src.id[last % 4]))
+            Some(LinkId::from_raw(src.id[last % 4]))
         } else {
             None
         };
@@ -88,9 +88,9 @@ impl Batch {
     fn info(&self, i: usize) -> LinkInfo {
         let (blk, k) = self.lane(i);
         LinkInfo {
-            id: LinkId(blk.id[k]),
-            a: ParticleId(blk.a[k]),
-            b: ParticleId(blk.b[k]),
+            id: LinkId::from_raw(blk.id[k]),
+            a: ParticleId::from_raw(blk.a[k]),
+            b: ParticleId::from_raw(blk.b[k]),
             rest: blk.rest[k],
             compliance: blk.compliance[k],
             weight: blk.weight[k],
@@ -165,7 +165,7 @@ impl LinkStore {
         weight: f32,
     ) -> LinkId {
         let id = match self.free.pop() {
-            Some(i) => LinkId(i),
+            Some(i) => LinkId::from_raw(i),
             None => {
                 self.slots.push(Slot {
                     batch: FREE,
@@ -258,7 +258,7 @@ impl LinkStore {
             batch: FREE,
             index: 0,
         };
-        self.free.push(id.0);
+        self.free.push(id.raw());
         self.len -= 1;
     }
 
@@ -293,7 +293,7 @@ impl LinkStore {
                 batch: FREE,
                 index: 0,
             };
-            self.free.push(id.0);
+            self.free.push(id.raw());
             self.len -= 1;
         }
         list.clear();

@@ -11,7 +11,7 @@ fn bench(c: &mut Criterion) {
         let mut cut = Cut::finest(&h);
         // Node in the middle of the level-1 nodes: its children are all on the finest cut.
         let level1 = h.nodes_at_level(1);
-        let parent = NodeId(level1.start + level1.len() as u32 / 2);
+        let parent = NodeId::from_raw(level1.start + level1.len() as u32 / 2);
         let n = cut.len();
         g.bench_with_input(BenchmarkId::new("coarse_then_refine", n), &n, |b, _| {
             b.iter(|| {

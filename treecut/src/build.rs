@@ -121,12 +121,12 @@ impl LevelStack {
         let vertex_order: Vec<u32> = (leaves.start..leaves.end)
             .map(|id| local[id as usize])
             .collect();
-        let mut leaf_of_vertex = vec![NodeId(0); positions.len()];
+        let mut leaf_of_vertex = vec![NodeId::from_raw(0); positions.len()];
         let mut rest_position = vec![Vec3::ZERO; total];
         let mut mass = vec![0f32; total];
         for (k, id) in (leaves.start..leaves.end).enumerate() {
             let v = local[id as usize] as usize;
-            leaf_of_vertex[v] = NodeId(id);
+            leaf_of_vertex[v] = NodeId::from_raw(id);
             let link = &mut links[id as usize];
             link.vertex_start = k as u32;
             link.vertex_end = k as u32 + 1;
@@ -161,8 +161,8 @@ impl LevelStack {
         for l in 0..n_levels {
             for &[a, b] in &level_edges {
                 let (ia, ib) = (arena_of[l][a as usize], arena_of[l][b as usize]);
-                adjacency[ia as usize].push(NodeId(ib));
-                adjacency[ib as usize].push(NodeId(ia));
+                adjacency[ia as usize].push(NodeId::from_raw(ib));
+                adjacency[ib as usize].push(NodeId::from_raw(ia));
             }
             if l + 1 < n_levels {
                 level_edges = quotient_edges(&level_edges, &parents[l]);

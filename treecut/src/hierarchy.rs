@@ -59,7 +59,7 @@ impl Hierarchy {
     /// The root, covering every vertex.
     #[inline]
     pub fn root(&self) -> NodeId {
-        NodeId(0)
+        NodeId::from_raw(0)
     }
 
     /// Whether `n` is a node of this hierarchy.
@@ -72,7 +72,7 @@ impl Hierarchy {
     #[inline]
     pub fn parent(&self, n: NodeId) -> Option<NodeId> {
         let p = self.links[n.index()].parent;
-        (p != NO_PARENT).then_some(NodeId(p))
+        (p != NO_PARENT).then_some(NodeId::from_raw(p))
     }
 
     /// The children of `n`, contiguous in the arena; empty for a leaf.
@@ -181,7 +181,7 @@ impl Hierarchy {
         assert!(level >= self.level(n) && level < self.level_count());
         let mut a = n;
         for _ in self.level(n)..level {
-            a = NodeId(self.links[a.index()].parent);
+            a = NodeId::from_raw(self.links[a.index()].parent);
         }
         a
     }

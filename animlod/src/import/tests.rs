@@ -325,10 +325,10 @@ fn synthetic_interpolations_and_accessors() {
     let rig = Rig::from_gltf_slice(&bytes, None).unwrap();
     let sk = rig.skeleton();
     assert_eq!(sk.len(), 3);
-    assert_eq!(sk.name(crate::BoneId(0)), "armature");
-    assert!(!sk.is_joint(crate::BoneId(0)));
+    assert_eq!(sk.name(crate::BoneId::from_raw(0)), "armature");
+    assert!(!sk.is_joint(crate::BoneId::from_raw(0)));
     assert_eq!(
-        sk.rest(crate::BoneId(0)).translation,
+        sk.rest(crate::BoneId::from_raw(0)).translation,
         Vec3::new(0.0, 0.0, 2.0)
     );
     assert_eq!(rig.skins().len(), 2);

@@ -361,7 +361,7 @@ impl Feedback {
         self.strain.clear();
         self.strain.resize(n, (0.0, 0.0));
         for l in body.links() {
-            let (a, b) = (l.a.0 as usize, l.b.0 as usize);
+            let (a, b) = (l.a.raw() as usize, l.b.raw() as usize);
             if l.rest <= 0.0 || l.weight <= 0.0 {
                 continue;
             }

@@ -511,7 +511,7 @@ pub unsafe extern "C" fn slod_cloth_step(world: *mut SlodWorld, cloth: SlodCloth
 fn check_node(entry: &ClothEntry, node: u32) -> Result<NodeId, FfiError> {
     let len = entry.cloth.hierarchy().len();
     if (node as usize) < len {
-        Ok(NodeId(node))
+        Ok(NodeId::from_raw(node))
     } else {
         Err(FfiError::invalid(
             "node",

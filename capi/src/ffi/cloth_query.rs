@@ -257,7 +257,7 @@ pub unsafe extern "C" fn slod_cloth_node_ids(
         // SAFETY: caller contract: NULL or a live world.
         let world = unsafe { arg(world, "world") }?;
         let body = cloth_ref(world, cloth)?.cloth.body();
-        let index = |n: &NodeId| n.0;
+        let index = |n: &NodeId| n.raw();
         // SAFETY: caller contract: `out` valid for `cap` writes, `out_len` for one.
         unsafe { copy_out_map(body.particle_nodes(), index, out, cap, out_len, "out") }
     })
@@ -284,7 +284,7 @@ pub unsafe extern "C" fn slod_cloth_active_nodes(
         // SAFETY: caller contract: NULL or a live world.
         let world = unsafe { arg(world, "world") }?;
         let cut = cloth_ref(world, cloth)?.cloth.body().cut();
-        let index = |n: &NodeId| n.0;
+        let index = |n: &NodeId| n.raw();
         // SAFETY: caller contract: `out` valid for `cap` writes, `out_len` for one.
         unsafe { copy_out_map(cut.active(), index, out, cap, out_len, "out") }
     })
@@ -316,10 +316,10 @@ pub unsafe extern "C" fn slod_cloth_node_info(
                 format!("{node} is not a node of this cloth ({} nodes)", h.len()),
             ));
         }
-        let n = NodeId(node);
+        let n = NodeId::from_raw(node);
         let kids = h.children(n);
         let info = SlodNodeInfo {
-            parent: h.parent(n).map_or(SLOD_NO_NODE, |p| p.0),
+            parent: h.parent(n).map_or(SLOD_NO_NODE, |p| p.raw()),
             first_child: kids.start,
             child_count: kids.len() as u32,
             level: h.level(n),

@@ -188,7 +188,7 @@ pub unsafe extern "C" fn slod_rig_info(
 
 /// Checks a clip index against a rig.
 pub(crate) fn check_clip(rig: &Rig, clip: u32) -> Result<ClipId, FfiError> {
-    let id = ClipId(clip);
+    let id = ClipId::from_raw(clip);
     match rig.clip(id) {
         Some(_) => Ok(id),
         None => Err(FfiError::invalid(
@@ -203,7 +203,7 @@ pub(crate) fn check_clip(rig: &Rig, clip: u32) -> Result<ClipId, FfiError> {
 
 /// Checks a skin index against a rig.
 pub(crate) fn check_skin(rig: &Rig, skin: u32) -> Result<SkinId, FfiError> {
-    let id = SkinId(skin);
+    let id = SkinId::from_raw(skin);
     match rig.skin(id) {
         Some(_) => Ok(id),
         None => Err(FfiError::invalid(
@@ -301,7 +301,7 @@ pub unsafe extern "C" fn slod_rig_find_clip(
             .clip_by_name(name)
             .ok_or_else(|| FfiError::invalid("name", format!("no clip is named {name:?}")))?;
         // SAFETY: caller contract: NULL or valid for a write.
-        unsafe { write_out(out_clip, id.0, "out_clip") }
+        unsafe { write_out(out_clip, id.raw(), "out_clip") }
     })
 }
 

@@ -80,7 +80,7 @@ pub(crate) fn measure(
     // Level-1 nodes in a scattered order (a multiplicative hash), so consecutive cycles touch
     // different parts of the net, as the feedback loop's operations do.
     let mut order: Vec<NodeId> = body.hierarchy().nodes_at_level(1).collect();
-    order.sort_by_key(|p| p.0.wrapping_mul(2_654_435_761) >> 8);
+    order.sort_by_key(|p| p.raw().wrapping_mul(2_654_435_761) >> 8);
 
     // Per operation: times (µs), node and link sums.
     let mut times: [Vec<f64>; 4] = std::array::from_fn(|_| Vec::with_capacity(cycles));

@@ -192,7 +192,7 @@ impl TreeCutSoftBody {
         for &n in cut.active() {
             node_particle[n.index()] = body
                 .push_particle(h.rest_position(n), Vec3::ZERO, h.mass(n), false)
-                .0;
+                .raw();
             particle_node.push(n);
         }
         // Cover each vertex by its active node, then link the ends of every mesh edge that
@@ -336,7 +336,7 @@ impl TreeCutSoftBody {
     /// The particle simulating `node`, if any.
     pub fn particle_of(&self, node: NodeId) -> Option<ParticleId> {
         match self.node_particle.get(node.index()) {
-            Some(&p) if p != NO_PARTICLE => Some(ParticleId(p)),
+            Some(&p) if p != NO_PARTICLE => Some(ParticleId::from_raw(p)),
             _ => None,
         }
     }
@@ -358,7 +358,7 @@ impl TreeCutSoftBody {
         neighbours.clear();
         offsets.push(0);
         for p in 0..self.particle_count() {
-            neighbours.extend(self.body.neighbours(ParticleId::new(p)).map(|q| q.0));
+            neighbours.extend(self.body.neighbours(ParticleId::new(p)).map(|q| q.raw()));
             offsets.push(neighbours.len() as u32);
         }
     }
@@ -517,9 +517,9 @@ impl TreeCutSoftBody {
             }
             None => self.body.push_particle(position, velocity, mass, false),
         };
-        self.node_particle[node.index()] = p.0;
+        self.node_particle[node.index()] = p.raw();
         self.particle_node.push(node);
-        p.0
+        p.raw()
     }
 
     /// Removes particle `p` (and its plain links), keeping the node tables in step with the

@@ -120,7 +120,7 @@ impl TreeCutSoftBody {
         for (i, k) in kids.enumerate() {
             let (x, m) = (self.scratch.positions[i], self.scratch.masses[i]);
             let c = self.add_node_particle(k, x, v_p, m);
-            self.body.set_collides(ParticleId(c), false);
+            self.body.set_collides(ParticleId::from_raw(c), false);
             self.rotation[k.index()] = rot;
             members.push(c);
         }
@@ -141,7 +141,7 @@ impl TreeCutSoftBody {
             for &b in h.level_neighbours(a) {
                 if b > a && kids.contains(b) {
                     let rest = (h.rest_position(a) - h.rest_position(b)).length();
-                    let j = (b.0 - first) as usize;
+                    let j = (b.raw() - first) as usize;
                     self.body.add_link_raw(
                         members[i],
                         members[j],
@@ -293,7 +293,7 @@ impl TreeCutSoftBody {
         }
         for k in self.hierarchy.children(t.node) {
             let p = self.node_particle[k.index()];
-            self.body.set_collides(ParticleId(p), true);
+            self.body.set_collides(ParticleId::from_raw(p), true);
         }
     }
 

@@ -160,13 +160,13 @@ impl TreeCutSoftBody {
         let h = &*self.hierarchy;
         let mut anchored = std::mem::take(&mut self.scratch.particles);
         anchored.clear();
-        anchored.extend(self.body.anchored_particles().map(|p| p.0));
+        anchored.extend(self.body.anchored_particles().map(|p| p.raw()));
         for &p in &anchored {
             let node = self.particle_node[p as usize];
             let x_p = self.body.positions()[p as usize].truncate();
             let rest_p = h.rest_position(node);
             let mut cov = Mat3::ZERO;
-            for q in self.body.neighbours(ParticleId(p)) {
+            for q in self.body.neighbours(ParticleId::from_raw(p)) {
                 let q_node = self.particle_node[q.index()];
                 crate::shape::accumulate(
                     &mut cov,
@@ -177,7 +177,9 @@ impl TreeCutSoftBody {
             let rot = crate::shape::rotation_of(&cov, self.rotation[node.index()]);
             self.rotation[node.index()] = rot;
             if let Some(at) = self.pins.pin_position(h, node, rot) {
-                self.body.set_anchor(ParticleId(p), at).expect("finite pin");
+                self.body
+                    .set_anchor(ParticleId::from_raw(p), at)
+                    .expect("finite pin");
             }
         }
         self.scratch.particles = anchored;

@@ -143,7 +143,13 @@ fn finest_cut_matches_plain_solver_step_for_step() {
         .collect();
     let mut plain_links: Vec<(u32, u32, u32)> = plain
         .links()
-        .map(|l| (l.a.0.min(l.b.0), l.a.0.max(l.b.0), l.rest.to_bits()))
+        .map(|l| {
+            (
+                l.a.raw().min(l.b.raw()),
+                l.a.raw().max(l.b.raw()),
+                l.rest.to_bits(),
+            )
+        })
         .collect();
     tc_links.sort_unstable();
     plain_links.sort_unstable();
