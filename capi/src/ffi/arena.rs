@@ -1,24 +1,14 @@
-//! Generational arena: the Rust side of the by-value ids handed to C.
+//! The C side of ids: by-value `{index1, generation}` pairs over [`slod_core::Arena`].
 //!
-//! Generations come from one process-wide counter, so no two objects ever share one (until
-//! 2^32 creations wrap). An id therefore only matches the slot it was issued for: a stale id (slot
-//! freed or reused), an id from another world, or an id of another kind (another arena) all fail
-//! the generation check and return `SLOD_RESULT_STALE_ID` instead of touching the wrong object.
+//! The arenas use process-wide generations ([`Generations::ProcessWide`]), so no two objects
+//! ever share one (until 2^32 creations wrap). An id therefore only matches the slot it was
+//! issued for: a stale id (slot freed or reused), an id from another world, or an id of another
+//! kind (another arena) all fail the generation check and return `SLOD_RESULT_STALE_ID` instead
+//! of touching the wrong object. `index1` is the slot index plus one, so the all-zero id is null.
 
-use std::sync::atomic::{AtomicU32, Ordering};
+use slod_core::{Generations, Handle};
 
 use super::result::FfiError;
-
-static NEXT_GENERATION: AtomicU32 = AtomicU32::new(1);
-
-fn next_generation() -> u32 {
-    loop {
-        let g = NEXT_GENERATION.fetch_add(1, Ordering::Relaxed);
-        if g != 0 {
-            return g; // 0 is reserved for the null id.
-        }
-    }
-}
 
 /// A raw id: `index1` is the slot index plus one (0 = null), `generation` the slot's stamp.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -27,86 +17,62 @@ pub(crate) struct RawId {
     pub(crate) generation: u32,
 }
 
-#[derive(Debug)]
-struct Slot<T> {
-    generation: u32,
-    value: Option<T>,
+impl RawId {
+    fn handle(self) -> Option<Handle> {
+        Some(Handle::from_raw(self.index1.checked_sub(1)?, self.generation))
+    }
+
+    fn from_handle(h: Handle) -> RawId {
+        RawId {
+            index1: h.index() + 1,
+            generation: h.generation(),
+        }
+    }
 }
 
-/// Objects of one kind inside one world.
+/// Objects of one kind inside one world; lookups fail with [`FfiError::StaleId`] naming the kind.
 #[derive(Debug)]
 pub(crate) struct Arena<T> {
-    slots: Vec<Slot<T>>,
-    free: Vec<u32>,
+    inner: slod_core::Arena<T>,
 }
 
 impl<T> Default for Arena<T> {
     fn default() -> Self {
         Arena {
-            slots: Vec::new(),
-            free: Vec::new(),
+            inner: slod_core::Arena::new(Generations::ProcessWide),
         }
     }
 }
 
 impl<T> Arena<T> {
     pub(crate) fn insert(&mut self, value: T) -> RawId {
-        let generation = next_generation();
-        let index = match self.free.pop() {
-            Some(i) => {
-                self.slots[i as usize] = Slot {
-                    generation,
-                    value: Some(value),
-                };
-                i
-            }
-            None => {
-                self.slots.push(Slot {
-                    generation,
-                    value: Some(value),
-                });
-                self.slots.len() as u32 - 1
-            }
-        };
-        RawId {
-            index1: index + 1,
-            generation,
-        }
-    }
-
-    fn slot(&self, id: RawId) -> Option<usize> {
-        let i = id.index1.checked_sub(1)? as usize;
-        let s = self.slots.get(i)?;
-        (s.generation == id.generation && s.value.is_some()).then_some(i)
+        RawId::from_handle(self.inner.insert(value))
     }
 
     pub(crate) fn get(&self, id: RawId, name: &'static str) -> Result<&T, FfiError> {
-        let i = self.slot(id).ok_or(FfiError::StaleId(name))?;
-        Ok(self.slots[i].value.as_ref().expect("slot checked occupied"))
+        id.handle()
+            .and_then(|h| self.inner.get(h))
+            .ok_or(FfiError::StaleId(name))
     }
 
     pub(crate) fn get_mut(&mut self, id: RawId, name: &'static str) -> Result<&mut T, FfiError> {
-        let i = self.slot(id).ok_or(FfiError::StaleId(name))?;
-        Ok(self.slots[i].value.as_mut().expect("slot checked occupied"))
+        id.handle()
+            .and_then(|h| self.inner.get_mut(h))
+            .ok_or(FfiError::StaleId(name))
     }
 
     pub(crate) fn remove(&mut self, id: RawId, name: &'static str) -> Result<T, FfiError> {
-        let i = self.slot(id).ok_or(FfiError::StaleId(name))?;
-        self.free.push(i as u32);
-        Ok(self.slots[i].value.take().expect("slot checked occupied"))
+        id.handle()
+            .and_then(|h| self.inner.remove(h))
+            .ok_or(FfiError::StaleId(name))
     }
 
     pub(crate) fn len(&self) -> usize {
-        self.slots.len() - self.free.len()
+        self.inner.len()
     }
 
     /// Removes every object for which `remove` returns true (their ids go stale).
-    pub(crate) fn remove_where(&mut self, mut remove: impl FnMut(&T) -> bool) {
-        for (i, s) in self.slots.iter_mut().enumerate() {
-            if s.value.as_ref().is_some_and(&mut remove) {
-                s.value = None;
-                self.free.push(i as u32);
-            }
-        }
+    pub(crate) fn remove_where(&mut self, remove: impl FnMut(&T) -> bool) {
+        self.inner.remove_where(remove);
     }
 }
