@@ -278,7 +278,7 @@ impl Crowd {
             models: Vec::new(),
             last_update: Vec::new(),
             drift: Vec::new(),
-            lod: LodMode::Off,
+            lod: LodMode::default(),
             params: SchedulerParams::default(),
             weights: PriorityWeights::EQUAL,
             source: PrioritySource::Factors,

@@ -4,11 +4,14 @@
 
 use crate::error::{CrowdError, invalid};
 
-/// How a crowd chooses each character's detail.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// How a crowd chooses each character's detail. The default is [`LodMode::Off`]; each mode's
+/// default parameters are the `DEFAULT_*` constants (the C ABI's `slod_default_lod_desc` copies
+/// them).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub enum LodMode {
     /// Every animated bone of every character interpolates every frame (constant channels are
     /// still never sampled).
+    #[default]
     Off,
     /// The same Ω for every character (tests, analysis, user control).
     Ratio(f32),
@@ -49,6 +52,25 @@ pub enum LodMode {
 }
 
 impl LodMode {
+    /// The thesis' distance range in metres: full detail nearer than 5, none beyond 50.
+    pub const DEFAULT_RANGE: LodMode = LodMode::Range {
+        min: 5.0,
+        max: 50.0,
+    };
+    /// Full detail from a projected radius of 200 px; frozen below 1 px.
+    pub const DEFAULT_PIXEL_SIZE: LodMode = LodMode::PixelSize {
+        full_detail_px: 200.0,
+        freeze_below_px: 1.0,
+    };
+    /// 5,000 bone interpolations per frame for the whole crowd.
+    pub const DEFAULT_BUDGET: LodMode = LodMode::Budget {
+        bone_updates_per_frame: 5000,
+    };
+    /// A held bone may drift half a pixel on screen.
+    pub const DEFAULT_ERROR_BOUND: LodMode = LodMode::ErrorBound { max_error_px: 0.5 };
+    /// Full detail for every character.
+    pub const DEFAULT_RATIO: LodMode = LodMode::Ratio(1.0);
+
     /// Checks the parameters: finite, `0 ≤ min < max`, `full_detail_px > 0`,
     /// `0 ≤ freeze_below_px < full_detail_px`, Ω in [0, 1].
     pub fn validate(&self) -> Result<(), CrowdError> {

@@ -3,13 +3,13 @@
 //! interval), and one feedback evaluation on its own (salience, normals, evaluator, operations).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use slod::cloth::net::{NetConfig, default_body_settings};
+use slod::cloth::net::NetConfig;
 use slod::cloth::{AdaptiveCloth, ClothBudget, FeedbackSettings};
 
 fn cloth(config: &NetConfig, compression: Option<f32>) -> AdaptiveCloth {
     let spec = config.grid();
     let n = config.size;
-    let mut c = AdaptiveCloth::grid(&spec, 0, default_body_settings()).unwrap();
+    let mut c = AdaptiveCloth::grid(&spec, 0, TreeCutSettings::default()).unwrap();
     for (i, j) in [(0, 0), (n - 1, 0), (0, n - 1), (n - 1, n - 1)] {
         c.body_mut()
             .pin_vertex(spec.vertex(i, j), spec.position(i, j))

@@ -3,8 +3,16 @@
 use crate::*;
 use glam::{Vec3, Vec4};
 
+/// The plain solver as other engines configure it (one step of 20 iterations, light damping);
+/// pinned here so the tests do not move with the defaults.
 fn settings() -> SolverSettings {
-    SolverSettings::default()
+    SolverSettings {
+        dt: 1.0 / 60.0,
+        substeps: 1,
+        iterations: 20,
+        gravity: Vec3::new(0.0, -9.81, 0.0),
+        damping: 0.1,
+    }
 }
 
 fn bits(p: &[Vec4]) -> Vec<[u32; 4]> {

@@ -53,6 +53,9 @@ pub struct Material {
     pub scaling: ComplianceScaling,
 }
 
+/// The default material is as stiff as the iterations allow (both compliances 0), what a plain
+/// cloth compared with other solvers uses. The TreeCut cloth's measured-good material is
+/// [`crate::TreeCutSettings`]'s default, which is resolution-consistent.
 impl Default for Material {
     fn default() -> Self {
         Self {
@@ -112,14 +115,23 @@ pub struct SolverSettings {
     pub damping: f32,
 }
 
+/// The defaults are the values the swinging-net experiment measured good, chosen so that a
+/// comparison between resolutions measures level of detail and not solver artefacts:
+///
+/// * 16 substeps of one iteration at 60 Hz: small steps converge better than many iterations
+///   at the same cost (Macklin et al., "Small Steps in Physics Simulation", 2019).
+/// * Damping 2/s: air drag on a light cloth. A linearised quadratic drag `½ρ c_d A v / m` with
+///   `ρ` = 1.2 kg/m³, `c_d` ≈ 1, 4 m² and 1 kg gives 2.4/s at 1 m/s. Without drag a swing
+///   goes on for many seconds and every comparison measures mostly phase drift between
+///   discretisations.
 impl Default for SolverSettings {
     fn default() -> Self {
         Self {
             dt: 1.0 / 60.0,
-            substeps: 1,
-            iterations: 20,
+            substeps: 16,
+            iterations: 1,
             gravity: Vec3::new(0.0, -9.81, 0.0),
-            damping: 0.1,
+            damping: 2.0,
         }
     }
 }

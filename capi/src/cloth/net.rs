@@ -16,7 +16,7 @@ use std::time::Instant;
 
 use glam::Vec3;
 use salience::View;
-use softbody::{DrawLink, Material, ReconstructionError, SolverSettings, TreeCutSettings};
+use softbody::{DrawLink, ReconstructionError, TreeCutSettings};
 use treecut::{Cut, GridSpec, Hierarchy, NodeId};
 
 use super::adaptive::AdaptiveCloth;
@@ -69,7 +69,7 @@ impl NetConfig {
             steps: 600,
             width: 2.0,
             mass: 1.0,
-            body: default_body_settings(),
+            body: TreeCutSettings::default(),
             feedback: FeedbackSettings::default(),
             view,
             compressions: vec![1.0, 0.75, 0.3],
@@ -84,37 +84,6 @@ impl NetConfig {
     pub fn grid(&self) -> GridSpec {
         let spacing = self.width / (self.size.max(2) - 1) as f32;
         GridSpec::horizontal(self.size, self.size, spacing, self.mass)
-    }
-}
-
-/// The solver settings of the net, chosen so that the comparison measures level of detail and
-/// not solver artefacts:
-///
-/// * 16 substeps of one iteration at 60 Hz (small steps converge better than many iterations
-///   at the same cost), and a membrane compliance of 0.015 m/N, about three times the
-///   `w·dt²` of a finest node: the finest cloth's stretch then comes from the material rather
-///   than from unfinished iterations, so coarse and fine cuts are the same material (see
-///   softbody's settings docs). A stiffer material would make the full-resolution reference
-///   itself iteration-limited: it creeps instead of swinging, and a coarse cut would be judged
-///   against an artefact.
-/// * Damping 2/s: air drag on a light net. A linearised quadratic drag `½ρ c_d A v / m` with
-///   `ρ` = 1.2 kg/m³, `c_d` ≈ 1, 4 m² and 1 kg gives 2.4/s at 1 m/s. Without drag the swing
-///   goes on for many seconds and every run measures mostly phase drift between discretisations.
-pub fn default_body_settings() -> TreeCutSettings {
-    TreeCutSettings {
-        solver: SolverSettings {
-            dt: 1.0 / 60.0,
-            substeps: 16,
-            iterations: 1,
-            gravity: Vec3::new(0.0, -9.81, 0.0),
-            damping: 2.0,
-        },
-        material: Material {
-            stretch_compliance: 0.015,
-            ..Material::default()
-        },
-        blend_steps: 4,
-        ..TreeCutSettings::default()
     }
 }
 

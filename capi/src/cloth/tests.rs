@@ -5,7 +5,7 @@ use salience::View;
 use softbody::TreeCutSettings;
 use treecut::{GridSpec, NodeId};
 
-use super::net::{NetConfig, NetRunKind, default_body_settings, run_net};
+use super::net::{NetConfig, NetRunKind, run_net};
 use super::{AdaptiveCloth, ClothBudget, ClothError, FeedbackSettings};
 
 fn camera() -> View {
@@ -82,7 +82,7 @@ fn swinging_net_at_30_percent_beats_uniform_and_random_cuts() {
 #[test]
 fn feedback_runs_are_bit_identical() {
     let run = || {
-        let mut c = net(17, 1, default_body_settings());
+        let mut c = net(17, 1, TreeCutSettings::default());
         c.set_feedback(Some(FeedbackSettings {
             budget: ClothBudget::Nodes(120),
             interval: 3,
@@ -113,7 +113,7 @@ fn feedback_runs_are_bit_identical() {
 /// mass is conserved throughout.
 #[test]
 fn node_budget_is_reached_and_held() {
-    let mut c = net(65, 0, default_body_settings());
+    let mut c = net(65, 0, TreeCutSettings::default());
     let mass = c.body().total_mass();
     c.set_feedback(Some(FeedbackSettings {
         budget: ClothBudget::Nodes(1000),
@@ -142,7 +142,7 @@ fn node_budget_is_reached_and_held() {
 /// Bad input gets a clear error and changes nothing.
 #[test]
 fn bad_feedback_input_is_refused_and_changes_nothing() {
-    let mut c = net(9, 0, default_body_settings());
+    let mut c = net(9, 0, TreeCutSettings::default());
     let good = FeedbackSettings {
         budget: ClothBudget::Compression(0.5),
         ..FeedbackSettings::default()
@@ -224,7 +224,7 @@ fn mesh_cloth_runs_the_loop() {
         (p, t)
     };
     let mut c =
-        AdaptiveCloth::from_mesh(&positions, &triangles, None, default_body_settings()).unwrap();
+        AdaptiveCloth::from_mesh(&positions, &triangles, None, TreeCutSettings::default()).unwrap();
     c.body_mut().pin_vertex(0, positions[0]).unwrap();
     c.body_mut().pin_vertex(11, positions[11]).unwrap();
     c.set_feedback(Some(FeedbackSettings {
@@ -251,7 +251,7 @@ fn mesh_cloth_runs_the_loop() {
 /// The time-budget mode keeps running and keeps its budget within the cloth's range.
 #[test]
 fn time_budget_moves_the_node_budget() {
-    let mut c = net(33, 0, default_body_settings());
+    let mut c = net(33, 0, TreeCutSettings::default());
     c.set_feedback(Some(FeedbackSettings {
         budget: ClothBudget::TargetStepMs(1e-3),
         interval: 1,

@@ -10,7 +10,7 @@ use super::boundary::{arg, arg_mut, boundary, slice, write_out};
 use super::ids::SlodClothId;
 use super::result::{FfiError, SlodResult};
 use super::world::{ClothEntry, SLOD_DESC_GUARD, SlodWorld, check_guard};
-use crate::cloth::{AdaptiveCloth, ClothBudget, ClothError, FeedbackSettings, PriorityModel, net};
+use crate::cloth::{AdaptiveCloth, ClothBudget, ClothError, FeedbackSettings, PriorityModel};
 
 /// Most finest-level vertices a cloth may have (grid or mesh).
 pub const SLOD_MAX_CLOTH_VERTICES: u32 = 1 << 22;
@@ -132,7 +132,7 @@ pub struct SlodFeedbackDesc {
 /// Returns a value the host owns; change fields, then pass it to a creation function.
 #[unsafe(no_mangle)]
 pub extern "C" fn slod_default_cloth_desc() -> SlodClothDesc {
-    let s = net::default_body_settings();
+    let s = TreeCutSettings::default();
     SlodClothDesc {
         guard: SLOD_DESC_GUARD,
         columns: 65,
@@ -163,17 +163,25 @@ pub extern "C" fn slod_default_cloth_desc() -> SlodClothDesc {
 #[unsafe(no_mangle)]
 pub extern "C" fn slod_default_feedback_desc() -> SlodFeedbackDesc {
     let f = FeedbackSettings::default();
+    let (budget_kind, budget_value) = match f.budget {
+        ClothBudget::Nodes(n) => (SlodClothBudget::Nodes, n as f64),
+        ClothBudget::Compression(c) => (SlodClothBudget::Compression, c as f64),
+        ClothBudget::TargetStepMs(ms) => (SlodClothBudget::TargetStepMs, ms as f64),
+    };
     SlodFeedbackDesc {
         guard: SLOD_DESC_GUARD,
-        budget_kind: SlodClothBudget::Compression as u32,
-        budget_value: 0.3,
+        budget_kind: budget_kind as u32,
+        budget_value,
         interval: f.interval,
         max_ops: f.max_ops as u32,
         hysteresis: f.hysteresis,
         memory_seconds: f.memory_seconds,
         deformation_weight: f.deformation_weight,
-        priority: SlodPriorityModel::ScreenError as u32,
-        parallel: 0,
+        priority: match f.priority {
+            PriorityModel::ScreenError => SlodPriorityModel::ScreenError,
+            PriorityModel::Salience => SlodPriorityModel::Salience,
+        } as u32,
+        parallel: u32::from(f.parallel),
     }
 }
 
@@ -215,7 +223,7 @@ fn check_u32(v: u32, lo: u32, hi: u32, name: &'static str) -> Result<(), FfiErro
 }
 
 impl SlodSolverDesc {
-    fn to_settings(self) -> Result<TreeCutSettings, FfiError> {
+    pub(super) fn to_settings(self) -> Result<TreeCutSettings, FfiError> {
         in_range(self.dt, f32::MIN_POSITIVE, 1.0, "desc.solver.dt")?;
         check_u32(self.substeps, 1, 1024, "desc.solver.substeps")?;
         check_u32(self.iterations, 1, 1024, "desc.solver.iterations")?;
@@ -623,7 +631,7 @@ pub unsafe extern "C" fn slod_cloth_unpin_vertex(
 }
 
 impl SlodFeedbackDesc {
-    fn to_settings(self, parallel_allowed: bool) -> Result<FeedbackSettings, FfiError> {
+    pub(super) fn to_settings(self, parallel_allowed: bool) -> Result<FeedbackSettings, FfiError> {
         check_guard(self.guard, "desc")?;
         let v = self.budget_value;
         let budget = match self.budget_kind {

@@ -94,16 +94,54 @@ pub struct SlodCrowdStats {
 /// Returns a value the host owns.
 #[unsafe(no_mangle)]
 pub extern "C" fn slod_default_lod_desc() -> SlodLodDesc {
+    let LodMode::Range {
+        min: range_min,
+        max: range_max,
+    } = LodMode::DEFAULT_RANGE
+    else {
+        unreachable!("DEFAULT_RANGE is a range")
+    };
+    let LodMode::PixelSize {
+        full_detail_px,
+        freeze_below_px,
+    } = LodMode::DEFAULT_PIXEL_SIZE
+    else {
+        unreachable!("DEFAULT_PIXEL_SIZE is a pixel size")
+    };
+    let LodMode::Budget {
+        bone_updates_per_frame,
+    } = LodMode::DEFAULT_BUDGET
+    else {
+        unreachable!("DEFAULT_BUDGET is a budget")
+    };
+    let LodMode::ErrorBound { max_error_px } = LodMode::DEFAULT_ERROR_BOUND else {
+        unreachable!("DEFAULT_ERROR_BOUND is an error bound")
+    };
+    let LodMode::Ratio(ratio) = LodMode::DEFAULT_RATIO else {
+        unreachable!("DEFAULT_RATIO is a ratio")
+    };
     SlodLodDesc {
         guard: SLOD_DESC_GUARD,
-        mode: SlodLodMode::Off as u32,
-        range_min: 5.0,
-        range_max: 50.0,
-        full_detail_px: 200.0,
-        freeze_below_px: 1.0,
-        bone_updates_per_frame: 5000,
-        max_error_px: 0.5,
-        ratio: 1.0,
+        mode: lod_mode_value(LodMode::default()) as u32,
+        range_min,
+        range_max,
+        full_detail_px,
+        freeze_below_px,
+        bone_updates_per_frame,
+        max_error_px,
+        ratio,
+    }
+}
+
+/// The C value of a mode's kind.
+fn lod_mode_value(mode: LodMode) -> SlodLodMode {
+    match mode {
+        LodMode::Off => SlodLodMode::Off,
+        LodMode::Range { .. } => SlodLodMode::Range,
+        LodMode::PixelSize { .. } => SlodLodMode::PixelSize,
+        LodMode::Budget { .. } => SlodLodMode::Budget,
+        LodMode::ErrorBound { .. } => SlodLodMode::ErrorBound,
+        LodMode::Ratio(_) => SlodLodMode::Ratio,
     }
 }
 
@@ -118,7 +156,7 @@ pub extern "C" fn slod_default_crowd_desc() -> SlodCrowdDesc {
 
 impl SlodLodDesc {
     /// The LOD mode, or an error naming the bad field (`prefix` names the desc, e.g. `lod`).
-    fn to_mode(self, guard_name: &'static str) -> Result<LodMode, FfiError> {
+    pub(super) fn to_mode(self, guard_name: &'static str) -> Result<LodMode, FfiError> {
         check_guard(self.guard, guard_name)?;
         let mode = match self.mode {
             0 => LodMode::Off,

@@ -30,6 +30,9 @@ pub mod crowd;
 
 pub mod character;
 
+#[cfg(test)]
+mod defaults_tests;
+
 pub use character::*;
 pub use cloth::*;
 pub use cloth_query::*;

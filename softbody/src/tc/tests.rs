@@ -25,9 +25,11 @@ fn settings(gravity: bool) -> TreeCutSettings {
                 Vec3::ZERO
             },
             damping: if gravity { 0.5 } else { 0.0 },
+            dt: 1.0 / 60.0,
+            substeps: 1,
             iterations: 10,
-            ..SolverSettings::default()
         },
+        material: Material::default(),
         blend_steps: 4,
         ..TreeCutSettings::default()
     }
