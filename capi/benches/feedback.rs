@@ -4,6 +4,7 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use slod::cloth::net::NetConfig;
+use softbody::TreeCutSettings;
 use slod::cloth::{AdaptiveCloth, ClothBudget, FeedbackSettings};
 
 fn cloth(config: &NetConfig, compression: Option<f32>) -> AdaptiveCloth {
