@@ -6,11 +6,11 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use animlod::experiment::{self, CrowdExperiment, Layout, THESIS_RANGE};
 use animlod::{Crowd, LodMode, PrioritySource, Rig};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use salience::View;
+use slod_experiments::crowd::{self as experiment, CrowdExperiment, Layout, THESIS_RANGE};
 
 fn thesis_rig() -> Arc<Rig> {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets/gltf/GDQuest_GDBot.glb");

@@ -10,6 +10,7 @@ use std::sync::Arc;
 use animlod::{ClipOptions, Crowd, ImportOptions, LodMode, Rig};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
+use slod_experiments::rig::grown_to;
 
 const CHARACTERS: usize = 64;
 
@@ -50,12 +51,12 @@ fn bench(c: &mut Criterion) {
         ),
         (
             "gdbot153_walk",
-            Arc::new(gdbot.grown_to(153).unwrap()),
+            Arc::new(grown_to(&gdbot, 153).unwrap()),
             "walk",
         ),
         (
             "gdbot153_walk_all_channels",
-            Arc::new(rig("GDQuest_GDBot.glb", &all).grown_to(153).unwrap()),
+            Arc::new(grown_to(&rig("GDQuest_GDBot.glb", &all), 153).unwrap()),
             "walk",
         ),
         ("fox_walk", Arc::new(rig("Fox.glb", &keep)), "Walk"),

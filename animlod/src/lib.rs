@@ -14,7 +14,8 @@
 //!   the crowd, and [`LodMode::ErrorBound`] holds a bone only while its measured on-screen drift
 //!   stays under a pixel bound; [`Crowd::advance`] samples, holds and concatenates (skipping
 //!   subtrees that held); [`Crowd::pose_error`] measures the cost against full-rate evaluation.
-//! - [`experiment`] — the thesis' crowd test, reusable by benches and demos.
+//!
+//! The thesis' crowd test and other experiments live in the `slod-experiments` crate.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
@@ -22,7 +23,6 @@ pub mod analysis;
 mod clip;
 mod crowd;
 mod error;
-pub mod experiment;
 mod ids;
 mod import;
 mod lod;

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use glam::{Mat4, Vec3};
 
-use crate::clip::{ChannelDesc, Clip, Keys};
+use crate::clip::{Clip, Keys};
 use crate::error::{BuildError, ImportError};
 use crate::ids::{BoneId, ClipId, SkinId};
 use crate::import::{ImportOptions, ImportReport, import};
@@ -99,7 +99,9 @@ impl Rig {
         import(&bytes, path.parent(), options)
     }
 
-    pub(crate) fn set_import_report(&mut self, report: ImportReport) {
+    /// Replaces what [`Rig::import_report`] says (for a rig derived from an imported one, which
+    /// keeps its source's report).
+    pub fn set_import_report(&mut self, report: ImportReport) {
         self.report = report;
     }
 
@@ -205,81 +207,6 @@ impl Rig {
             .map(|s| Skin {
                 inverse_bind: s.inverse_bind.iter().map(|&m| scale_ib(m)).collect(),
                 ..s.clone()
-            })
-            .collect();
-        let mut rig = Rig::new(skeleton, clips, skins)?;
-        rig.report = self.report;
-        Ok(rig)
-    }
-
-    /// A rig of exactly `bones` bones (at least the current count) made by replicating this one:
-    /// copies of every non-root bone, with their channels, hang under the same roots until the
-    /// count is reached (the last copy keeps a parents-first prefix). Copies join every skin their
-    /// original is in. The thesis' crowd test uses 153-bone characters; no real rig here has that
-    /// many, so this builds one from a real skeleton and real motion.
-    pub fn grown_to(&self, bones: usize) -> Result<Rig, BuildError> {
-        let n0 = self.skeleton.len();
-        if bones < n0 || bones > crate::skeleton::MAX_BONES {
-            return Err(BuildError::TooManyBones(bones));
-        }
-        let base = self.skeleton.descs();
-        let non_roots: Vec<usize> = (0..n0).filter(|&i| base[i].parent.is_some()).collect();
-        if non_roots.is_empty() && bones > n0 {
-            return Err(BuildError::EmptySkeleton);
-        }
-        let mut descs = base.clone();
-        let mut origin: Vec<usize> = (0..n0).collect();
-        let mut copy = 0;
-        while descs.len() < bones {
-            copy += 1;
-            let mut map = vec![usize::MAX; n0];
-            for &i in &non_roots {
-                if descs.len() == bones {
-                    break;
-                }
-                let p = base[i].parent.map(|p| p.index()).unwrap_or(0);
-                let new_parent = if base[p].parent.is_none() { p } else { map[p] };
-                map[i] = descs.len();
-                origin.push(i);
-                descs.push(BoneDesc {
-                    name: format!("{}#{copy}", base[i].name),
-                    parent: Some(BoneId::new(new_parent)),
-                    ..base[i].clone()
-                });
-            }
-        }
-        let skeleton = Skeleton::new(descs)?;
-        let clips = self
-            .clips
-            .iter()
-            .map(|c| {
-                let mut channels: Vec<ChannelDesc> = c.channels().to_vec();
-                for (new, &orig) in origin.iter().enumerate().skip(n0) {
-                    channels.extend(
-                        c.channels()
-                            .iter()
-                            .filter(|ch| ch.bone.index() == orig)
-                            .map(|ch| ChannelDesc {
-                                bone: BoneId::new(new),
-                                ..ch.clone()
-                            }),
-                    );
-                }
-                Clip::new(c.name(), &skeleton, channels, c.options())
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        let skins = self
-            .skins
-            .iter()
-            .map(|s| {
-                let mut s = s.clone();
-                for (new, &orig) in origin.iter().enumerate().skip(n0) {
-                    if let Some(k) = s.joints.iter().position(|j| j.index() == orig) {
-                        s.joints.push(BoneId::new(new));
-                        s.inverse_bind.push(s.inverse_bind[k]);
-                    }
-                }
-                s
             })
             .collect();
         let mut rig = Rig::new(skeleton, clips, skins)?;

@@ -227,8 +227,9 @@ impl Skeleton {
         out
     }
 
-    /// Builds a skeleton from parts already validated (used by rig transformations).
-    pub(crate) fn descs(&self) -> Vec<BoneDesc> {
+    /// The bone descriptions this skeleton was built from, parents first: what
+    /// [`Skeleton::new`] takes, for building a modified skeleton (rig transformations).
+    pub fn descs(&self) -> Vec<BoneDesc> {
         (0..self.len())
             .map(|i| BoneDesc {
                 name: self.names[i].clone(),

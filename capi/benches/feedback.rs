@@ -3,9 +3,9 @@
 //! interval), and one feedback evaluation on its own (salience, normals, evaluator, operations).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use slod::cloth::net::NetConfig;
-use softbody::TreeCutSettings;
 use slod::cloth::{AdaptiveCloth, ClothBudget, FeedbackSettings};
+use slod_experiments::net::NetConfig;
+use softbody::TreeCutSettings;
 
 fn cloth(config: &NetConfig, compression: Option<f32>) -> AdaptiveCloth {
     let spec = config.grid();

@@ -13,8 +13,8 @@ use crate::net::{self, NetOutcome, NetPlan};
 use crate::paper::{TABLE1, TABLE2_TCSB, THESIS};
 use crate::progress::Progress;
 use crate::report::{self, Report, SCHEMA, Seconds};
-use crate::table::{Table, num, pct};
 use crate::{plots, render};
+use slod_experiments::table::{Table, num, pct};
 
 /// Runs the demo for `args` (without the program name), printing tables to `out` and errors
 /// to `err`; returns the process exit status: 0, [`EXIT_USAGE`] for a bad command line (the

@@ -1,4 +1,4 @@
-//! The crowd (the bone-priority thesis' chapter 13), measured with `animlod::experiment`:
+//! The crowd (the bone-priority thesis' chapter 13), measured with `slod_experiments::crowd`:
 //! characters of a 153-bone rig in a grid and at random positions, the camera swept away from
 //! the crowd; at each distance the frame cost with and without LOD and the pose error in pixels.
 //! By default: the thesis' range [200, 1700] in both layouts, then the crowd budget mode
@@ -8,15 +8,15 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-use animlod::experiment::{self, CrowdExperiment, Layout, SweepRow, THESIS_HEIGHT};
 use animlod::{ClipId, LodMode, PrioritySource, Rig};
 use serde::Serialize;
+use slod_experiments::crowd::{self, CrowdExperiment, Layout, SweepRow, THESIS_HEIGHT};
 
 use crate::cli::{CrowdLod, CrowdOptions};
 use crate::error::DemoError;
 use crate::paper::{THESIS, Thesis};
 use crate::progress::Progress;
-use crate::table::{Table, num};
+use slod_experiments::table::{Table, num};
 
 /// The default rig: GDQuest's GDBot (CC-BY 4.0), the workspace's real 63-joint humanoid.
 const DEFAULT_RIG: &str = "assets/gltf/GDQuest_GDBot.glb";
@@ -349,7 +349,7 @@ pub(crate) fn run(plan: &CrowdPlan, progress: Progress) -> Result<CrowdOutcome, 
         source,
     })?;
     let clip = pick_clip(&base, plan.clip.as_deref(), &plan.rig_path)?;
-    let rig = Arc::new(experiment::thesis_rig(&base)?);
+    let rig = Arc::new(crowd::thesis_rig(&base)?);
     let clip_data = rig
         .clip(clip)
         .ok_or_else(|| DemoError::Clip("the clip vanished while scaling the rig".into()))?;
@@ -393,7 +393,7 @@ pub(crate) fn run(plan: &CrowdPlan, progress: Progress) -> Result<CrowdOutcome, 
         // as the sweep does at every distance.
         for &d in &plan.distances {
             cfg.distances = vec![d];
-            rows.extend(experiment::run(&rig, &cfg)?.iter().map(RowReport::from));
+            rows.extend(crowd::run(&rig, &cfg)?.iter().map(RowReport::from));
             bar.inc(1);
         }
         let (layout, layout_size) = match spec.layout {

@@ -4,7 +4,7 @@
 //!
 //! The binary is a thin wrapper over [`run_cli`], so the tests run exactly what a user runs.
 //! Modules, in the order a run uses them: `cli` (arguments), `net` and `crowd` (the
-//! experiments), `render` and `plots` (pictures), `table` (text tables), `report` (JSON) and
+//! experiments), `render` and `plots` (pictures), `report` (JSON) and
 //! `app` (the sequence and the summary).
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -21,7 +21,6 @@ mod plots;
 mod progress;
 mod render;
 mod report;
-mod table;
 
 pub use app::run_cli;
 pub use cli::{EXIT_FAILURE, EXIT_USAGE, usage};

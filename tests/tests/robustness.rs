@@ -16,30 +16,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use slod::ffi::*;
 
-/// splitmix64: small, deterministic, good enough to pick calls.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n.max(1)
-    }
-    fn chance(&mut self, p: f64) -> bool {
-        ((self.next() >> 11) as f64 / (1u64 << 53) as f64) < p
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * ((self.next() >> 40) as f32 / (1u64 << 24) as f32)
-    }
-    fn pick<T: Copy>(&mut self, v: &[T]) -> Option<T> {
-        (!v.is_empty()).then(|| v[self.below(v.len() as u64) as usize])
-    }
-}
+use slod_experiments::rng::Rng;
 
 fn last_error() -> String {
     let mut buf = [0 as c_char; 1024];
@@ -1241,7 +1218,7 @@ fn random_call(rng: &mut Rng, m: &mut Model, other: &Model, assets: &Assets, ste
 }
 
 fn run_seed(seed: u64, steps: usize, assets: &Assets) {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     let mut a = Model::new(1);
     let mut b = Model::new(2);
     for step in 0..steps {

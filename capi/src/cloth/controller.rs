@@ -116,11 +116,11 @@ mod tests {
             ControllerSettings::default(),
         );
         let mut nodes = start_nodes;
-        let mut noise = 12345u32;
+        let mut noise: rand_pcg::Pcg64Mcg = rand_core::SeedableRng::seed_from_u64(12345);
         let mut out = Vec::new();
         for _ in 0..300 {
-            noise = noise.wrapping_mul(1664525).wrapping_add(1013904223);
-            let jitter = 1.0 + 0.03 * ((noise >> 8) as f64 / (1u32 << 24) as f64 * 2.0 - 1.0);
+            let draw = rand_core::RngCore::next_u32(&mut noise) >> 8;
+            let jitter = 1.0 + 0.03 * (draw as f64 / (1u32 << 24) as f64 * 2.0 - 1.0);
             let t = (fixed + per_node * nodes as f64) * jitter;
             out.push((t, nodes));
             let b = c.update(t, nodes);

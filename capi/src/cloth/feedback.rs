@@ -405,8 +405,9 @@ impl Feedback {
     }
 }
 
-/// The node count a compression (fraction of the full count) allows: rounded, at least 1.
-pub(crate) fn compression_nodes(compression: f32, full_nodes: usize) -> usize {
+/// The node count a compression (fraction of the full count) allows: rounded, at least 1 (what
+/// [`ClothBudget::Compression`] means).
+pub fn compression_nodes(compression: f32, full_nodes: usize) -> usize {
     ((compression as f64 * full_nodes as f64).round() as usize).max(1)
 }
 

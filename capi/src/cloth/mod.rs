@@ -6,11 +6,10 @@ mod adaptive;
 mod controller;
 mod error;
 mod feedback;
-pub mod net;
 #[cfg(test)]
 mod tests;
 
 pub use adaptive::{AdaptiveCloth, ClothStats, UNDO_WINDOW_STEPS};
 pub use controller::{ControllerSettings, TimeController};
 pub use error::ClothError;
-pub use feedback::{ClothBudget, FeedbackSettings, PriorityModel};
+pub use feedback::{ClothBudget, FeedbackSettings, PriorityModel, compression_nodes};

@@ -1,6 +1,6 @@
 //! The swinging net (the simulation paper's section 6), measured: Table 1 (one TreeCut
 //! operation), Figure 5 (step time against node count), then the experiment itself
-//! (`slod::cloth::net::run_net`: a full-resolution reference, feedback runs at several
+//! (`slod_experiments::net::run_net`: a full-resolution reference, feedback runs at several
 //! compressions, uniform and random cuts, a time-budget run), giving Table 2 (step times beside
 //! the paper's and Bullet's) and the surface error of every run against the reference.
 
@@ -10,13 +10,13 @@ mod scaling;
 use std::time::Instant;
 
 use serde::Serialize;
-use slod::cloth::net::{NetConfig, NetReport, NetRun, NetRunKind, run_net};
+use slod_experiments::net::{NetConfig, NetReport, NetRun, NetRunKind, run_net};
 
 use crate::cli::NetOptions;
 use crate::error::DemoError;
 use crate::paper::{self, PEER_BULLET_65, PeerBullet, TABLE2_BULLET};
 use crate::progress::Progress;
-use crate::table::{Table, num, opt, pct};
+use slod_experiments::table::{Table, num, opt, pct};
 
 pub(crate) use ops::Table1;
 use scaling::Figure5Plan;

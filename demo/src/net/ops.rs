@@ -11,14 +11,14 @@
 use std::time::Instant;
 
 use serde::Serialize;
-use slod::cloth::net::NetConfig;
+use slod_experiments::net::NetConfig;
 use softbody::{TreeCutSettings, TreeCutSoftBody};
 use treecut::{Cut, Hierarchy, NodeId};
 
 use crate::error::DemoError;
 use crate::paper::{PaperOp, TABLE1};
 use crate::progress::Progress;
-use crate::table::{Table, num};
+use slod_experiments::table::{Table, num};
 
 /// One operation's measured cost beside the paper's.
 #[derive(Clone, Debug, Serialize)]
@@ -77,10 +77,10 @@ pub(crate) fn measure(
     for _ in 0..30 {
         body.step();
     }
-    // Level-1 nodes in a scattered order (a multiplicative hash), so consecutive cycles touch
+    // Level-1 nodes in a scattered order (a seeded shuffle), so consecutive cycles touch
     // different parts of the net, as the feedback loop's operations do.
     let mut order: Vec<NodeId> = body.hierarchy().nodes_at_level(1).collect();
-    order.sort_by_key(|p| p.raw().wrapping_mul(2_654_435_761) >> 8);
+    slod_experiments::rng::Rng::new(0x7AB1E1).shuffle(&mut order);
 
     // Per operation: times (µs), node and link sums.
     let mut times: [Vec<f64>; 4] = std::array::from_fn(|_| Vec::with_capacity(cycles));

@@ -14,14 +14,14 @@ use std::time::Instant;
 
 use glam::Vec3;
 use serde::Serialize;
-use slod::cloth::net::NetConfig;
 use slod::cloth::{AdaptiveCloth, ClothBudget, FeedbackSettings};
+use slod_experiments::net::NetConfig;
 use softbody::{GridCloth, SoftBody, SolverSettings, TreeCutSoftBody};
 use treecut::{Cut, Hierarchy};
 
 use crate::error::DemoError;
 use crate::progress::Progress;
-use crate::table::{Table, num};
+use slod_experiments::table::{Table, num};
 
 /// One measured configuration.
 #[derive(Clone, Debug, Serialize)]
@@ -307,9 +307,9 @@ pub(crate) fn measure(
 }
 
 /// A cut of at most `nodes` nodes spread evenly over the net
-/// ([`slod::cloth::net::uniform_cut`]).
+/// ([`treecut::uniform_cut`]).
 fn even_cut(h: &Hierarchy, nodes: usize) -> Result<Cut, DemoError> {
-    Ok(slod::cloth::net::uniform_cut(h, nodes)?)
+    Ok(treecut::uniform_cut(h, nodes).map_err(softbody::TreeCutError::from)?)
 }
 
 fn pinned(mut body: SoftBody, grid: &GridCloth) -> Result<SoftBody, DemoError> {

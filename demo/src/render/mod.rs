@@ -14,7 +14,7 @@ mod text;
 use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
-use slod::cloth::net::{NetConfig, NetReport, NetRun, NetRunKind, NetSnapshot};
+use slod_experiments::net::{NetConfig, NetReport, NetRun, NetRunKind, NetSnapshot};
 use softbody::DrawLink;
 
 use crate::error::DemoError;

@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 
 /// One table, built row by row and rendered once.
 #[derive(Clone, Debug, Default)]
-pub(crate) struct Table {
+pub struct Table {
     title: String,
     /// Left-align every column (tables of text rather than numbers).
     left: bool,
@@ -23,7 +23,7 @@ enum Row {
 
 impl Table {
     /// A table with a title and column headers.
-    pub(crate) fn new(title: impl Into<String>, header: &[&str]) -> Table {
+    pub fn new(title: impl Into<String>, header: &[&str]) -> Table {
         Table {
             title: title.into(),
             header: header.iter().map(|s| s.to_string()).collect(),
@@ -32,29 +32,29 @@ impl Table {
     }
 
     /// Left-aligns every column, for tables of sentences.
-    pub(crate) fn left_aligned(mut self) -> Table {
+    pub fn left_aligned(mut self) -> Table {
         self.left = true;
         self
     }
 
     /// Appends a row (missing cells are blank, extra cells are kept).
-    pub(crate) fn row<S: Into<String>>(&mut self, cells: impl IntoIterator<Item = S>) {
+    pub fn row<S: Into<String>>(&mut self, cells: impl IntoIterator<Item = S>) {
         self.rows
             .push(Row::Cells(cells.into_iter().map(Into::into).collect()));
     }
 
     /// Appends a horizontal rule between groups of rows.
-    pub(crate) fn rule(&mut self) {
+    pub fn rule(&mut self) {
         self.rows.push(Row::Rule);
     }
 
     /// Appends a note printed under the table.
-    pub(crate) fn note(&mut self, note: impl Into<String>) {
+    pub fn note(&mut self, note: impl Into<String>) {
         self.notes.push(note.into());
     }
 
     /// The table as text, ending with a newline.
-    pub(crate) fn render(&self) -> String {
+    pub fn render(&self) -> String {
         let columns = self.rows.iter().fold(self.header.len(), |n, r| match r {
             Row::Cells(c) => n.max(c.len()),
             Row::Rule => n,
@@ -114,7 +114,7 @@ impl Table {
 }
 
 /// `x` with `digits` decimals, or `-` when it is not finite.
-pub(crate) fn num(x: f64, digits: usize) -> String {
+pub fn num(x: f64, digits: usize) -> String {
     if x.is_finite() {
         format!("{x:.digits$}")
     } else {
@@ -123,12 +123,12 @@ pub(crate) fn num(x: f64, digits: usize) -> String {
 }
 
 /// An optional number, `-` when absent.
-pub(crate) fn opt(x: Option<f64>, digits: usize) -> String {
+pub fn opt(x: Option<f64>, digits: usize) -> String {
     x.map_or_else(|| "-".into(), |v| num(v, digits))
 }
 
 /// A fraction as a percentage with `digits` decimals.
-pub(crate) fn pct(x: f64, digits: usize) -> String {
+pub fn pct(x: f64, digits: usize) -> String {
     if x.is_finite() {
         format!("{:.digits$}%", 100.0 * x)
     } else {

@@ -16,12 +16,11 @@ use std::time::Instant;
 
 use glam::Vec3;
 use salience::View;
-use softbody::{DrawLink, ReconstructionError, TreeCutSettings};
-use treecut::{Cut, GridSpec, Hierarchy, NodeId};
+use softbody::{DrawLink, ReconstructionError, TreeCutError, TreeCutSettings};
+use treecut::{Cut, GridSpec, Hierarchy};
 
-use super::adaptive::AdaptiveCloth;
-use super::error::ClothError;
-use super::feedback::{ClothBudget, FeedbackSettings, compression_nodes};
+use slod::cloth::{AdaptiveCloth, ClothBudget, ClothError, FeedbackSettings, compression_nodes};
+use treecut::{random_cut, uniform_cut};
 
 /// What to run.
 #[derive(Clone, Debug, PartialEq)]
@@ -283,7 +282,7 @@ pub fn run_net(config: &NetConfig, progress: Progress<'_>) -> Result<NetReport, 
 
     for &c in &config.compressions {
         let budget = nodes_for(c, full)?;
-        let mut cloth = make(uniform_cut(&h, budget)?)?;
+        let mut cloth = make(uniform_cut(&h, budget).map_err(TreeCutError::from)?)?;
         cloth.set_feedback(Some(FeedbackSettings {
             budget: ClothBudget::Compression(c),
             ..config.feedback
@@ -302,7 +301,7 @@ pub fn run_net(config: &NetConfig, progress: Progress<'_>) -> Result<NetReport, 
     }
     if let Some(c) = config.baseline_compression {
         let budget = nodes_for(c, full)?;
-        let mut cloth = make(uniform_cut(&h, budget)?)?;
+        let mut cloth = make(uniform_cut(&h, budget).map_err(TreeCutError::from)?)?;
         let label = format!("uniform {:.0}%", c * 100.0);
         runs.push(simulate(
             &mut cloth,
@@ -314,7 +313,8 @@ pub fn run_net(config: &NetConfig, progress: Progress<'_>) -> Result<NetReport, 
             None,
             progress,
         )?);
-        let mut cloth = make(random_cut(&h, budget, config.random_seed)?)?;
+        let mut cloth =
+            make(random_cut(&h, budget, config.random_seed).map_err(TreeCutError::from)?)?;
         let label = format!("random {:.0}%", c * 100.0);
         runs.push(simulate(
             &mut cloth,
@@ -457,59 +457,53 @@ fn simulate(
     })
 }
 
-/// Refines from the root, always the node with the highest `key`, while the cut stays within
-/// `nodes` nodes (a node whose children do not fit is skipped, a smaller fanout may still fit).
-/// O(n log n) in the cut size.
-fn grow_cut(h: &Hierarchy, nodes: usize, key: impl Fn(NodeId) -> u64) -> Result<Cut, ClothError> {
-    let mut cut = Cut::root(h);
-    let mut heap = std::collections::BinaryHeap::new();
-    let root = h.root();
-    if !h.is_leaf(root) {
-        heap.push((key(root), std::cmp::Reverse(root)));
-    }
-    while let Some((_, std::cmp::Reverse(n))) = heap.pop() {
-        if cut.len() + h.child_count(n) - 1 > nodes {
-            continue;
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The paper's scenario at 30%: the error bounds of the issue, the salience-driven cut better
+    /// than a uniform and a random cut at the same node count, the budget held, and (almost) no
+    /// operation undone within 30 steps.
+    #[test]
+    fn swinging_net_at_30_percent_beats_uniform_and_random_cuts() {
+        let mut config = NetConfig::paper().unwrap();
+        config.compressions = vec![0.3];
+        config.snapshot_steps = vec![45];
+        let report = run_net(&config, &mut |_, _, _| {}).unwrap();
+        let reference = report.run(NetRunKind::Reference).unwrap();
+        assert_eq!(reference.nodes, report.full_nodes as f64);
+        assert_eq!(reference.error.max, 0.0);
+        let fb = report
+            .run(NetRunKind::Feedback { compression: 0.3 })
+            .unwrap();
+        let uniform = report
+            .run(NetRunKind::Uniform { compression: 0.3 })
+            .unwrap();
+        let random = report.run(NetRunKind::Random { compression: 0.3 }).unwrap();
+        let summary = format!(
+            "feedback {:?}, uniform {:?}, random {:?}",
+            fb.error, uniform.error, random.error
+        );
+        assert!(fb.error.rms < 0.02, "{summary}");
+        assert!(fb.error.max < 0.05, "{summary}");
+        for other in [uniform, random] {
+            assert!(fb.error.rms < other.error.rms, "{summary}");
+            assert!(fb.error.max < other.error.max, "{summary}");
+            assert!(
+                (other.nodes - fb.nodes).abs() < 0.01 * fb.nodes,
+                "same node count"
+            );
         }
-        cut.refine(h, n).map_err(softbody::TreeCutError::from)?;
-        for c in h.children(n) {
-            if !h.is_leaf(c) {
-                heap.push((key(c), std::cmp::Reverse(c)));
-            }
-        }
+        // The budget holds on average (transitions in flight may add a few nodes for a moment).
+        assert!(fb.nodes <= fb.budget_nodes as f64 * 1.01, "{}", fb.nodes);
+        assert!(fb.operations > 20, "the cut adapted: {}", fb.operations);
+        assert!(
+            (fb.undone_operations as f64) < 0.01 * fb.operations as f64,
+            "{} of {} operations undone",
+            fb.undone_operations,
+            fb.operations
+        );
+        assert_eq!(fb.snapshots.len(), 1);
+        assert_eq!(fb.snapshots[0].vertices.len(), report.full_nodes);
     }
-    Ok(cut)
-}
-
-/// A cut of at most `nodes` nodes in which every region is at about the same depth: nodes of
-/// coarser levels are refined first, those of one level in an order spread evenly over the
-/// cloth (a hash of the id). O(n log n).
-///
-/// By level rather than by size: the quadtree of a grid whose side is not 2^k + 1 has larger
-/// blocks along two edges (a 65-vertex side splits into 31 blocks of 2 and one of 3), and
-/// refining the largest first would spend the whole remainder on a fine band along those
-/// edges.
-pub fn uniform_cut(h: &Hierarchy, nodes: usize) -> Result<Cut, ClothError> {
-    grow_cut(h, nodes, |n| {
-        ((h.level(n) as u64) << 32) | (unit_hash(n.index() as u64, 0x0123) * 4.0e9) as u64
-    })
-}
-
-/// A cut of at most `nodes` nodes refined in random order (a fixed random key per node).
-/// O(n log n).
-pub fn random_cut(h: &Hierarchy, nodes: usize, seed: u64) -> Result<Cut, ClothError> {
-    grow_cut(h, nodes, |n| {
-        (unit_hash(n.index() as u64, seed) * 4.0e9) as u64
-    })
-}
-
-/// A hash of `(i, seed)` mapped to [0, 1) (splitmix64).
-fn unit_hash(i: u64, seed: u64) -> f32 {
-    let mut z = i
-        .wrapping_add(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15))
-        .wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^= z >> 31;
-    (z >> 40) as f32 / (1u64 << 24) as f32
 }

@@ -19,14 +19,13 @@ use glam::Vec3;
 
 use salience::View;
 
-use crate::crowd::Crowd;
-use crate::error::{BuildError, CrowdError};
-use crate::ids::{BoneId, ClipId};
-use crate::lod::LodMode;
-use crate::pose_error::ErrorSum;
-use crate::priority::PriorityWeights;
-use crate::rig::Rig;
-use crate::scheduler::SchedulerParams;
+use animlod::{
+    BoneId, BuildError, ClipId, Crowd, CrowdError, ErrorSum, LodMode, PriorityWeights, Rig,
+    SchedulerParams,
+};
+
+use crate::rig::grown_to;
+use crate::rng::Rng;
 
 /// The thesis' bone count per character.
 pub const THESIS_BONES: usize = 153;
@@ -74,7 +73,7 @@ pub struct CrowdExperiment {
     /// Priority weights of the LOD crowd.
     pub weights: PriorityWeights,
     /// Priority source of the LOD crowd.
-    pub source: crate::PrioritySource,
+    pub source: animlod::PrioritySource,
     /// Camera distances from the crowd's centre (the camera looks at the centre along −z, from
     /// the height of the characters' bounding-sphere centre).
     pub distances: Vec<f32>,
@@ -118,7 +117,7 @@ impl CrowdExperiment {
             lod: THESIS_RANGE,
             scheduler: SchedulerParams::default(),
             weights: PriorityWeights::EQUAL,
-            source: crate::PrioritySource::Factors,
+            source: animlod::PrioritySource::Factors,
             distances: vec![
                 100.0, 200.0, 400.0, 600.0, 800.0, 1000.0, 1200.0, 1400.0, 1600.0, 1800.0, 2000.0,
                 2500.0, 3000.0,
@@ -179,7 +178,7 @@ impl SweepRow {
 /// fewer) and scaled to [`THESIS_HEIGHT`] units tall (height of its rest-pose joints).
 pub fn thesis_rig(rig: &Rig) -> Result<Rig, BuildError> {
     let grown = if rig.bone_count() < THESIS_BONES {
-        rig.grown_to(THESIS_BONES)?
+        grown_to(rig, THESIS_BONES)?
     } else {
         rig.clone()
     };
@@ -199,26 +198,6 @@ pub fn thesis_rig(rig: &Rig) -> Result<Rig, BuildError> {
     grown.scaled(THESIS_HEIGHT / height)
 }
 
-/// SplitMix64: a tiny deterministic generator for positions and phases.
-#[derive(Clone, Copy, Debug)]
-pub struct SplitMix(pub u64);
-
-impl SplitMix {
-    /// Next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1).
-    pub fn next_f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-    }
-}
-
 /// Character positions for a layout, centred on the origin.
 pub fn positions(layout: Layout, count: usize) -> Vec<Vec3> {
     match layout {
@@ -236,7 +215,7 @@ pub fn positions(layout: Layout, count: usize) -> Vec<Vec3> {
                 .collect()
         }
         Layout::Random { side, seed } => {
-            let mut r = SplitMix(seed);
+            let mut r = Rng::new(seed);
             (0..count)
                 .map(|_| {
                     Vec3::new(
@@ -262,7 +241,7 @@ pub fn build_crowds(rig: &Arc<Rig>, cfg: &CrowdExperiment) -> Result<(Crowd, Cro
     lod.set_scheduler(cfg.scheduler)?;
     lod.set_priority_weights(cfg.weights)?;
     lod.set_priority_source(cfg.source);
-    let mut phase = SplitMix(cfg.seed);
+    let mut phase = Rng::new(cfg.seed);
     for p in positions(cfg.layout, cfg.characters) {
         let t = phase.next_f32() * duration;
         for c in [&mut full, &mut lod] {
@@ -284,10 +263,10 @@ fn median(v: &mut [f64]) -> f64 {
 /// Runs the sweep: at each distance, both crowds are warmed up then measured frame by frame.
 pub fn run(rig: &Arc<Rig>, cfg: &CrowdExperiment) -> Result<Vec<SweepRow>, CrowdError> {
     if !(cfg.dt.is_finite() && cfg.dt >= 0.0) {
-        return Err(crate::error::invalid(
-            "dt",
-            "must be finite and non-negative",
-        ));
+        return Err(CrowdError::InvalidArgument {
+            what: "dt",
+            reason: "must be finite and non-negative",
+        });
     }
     let (mut full, mut lod) = build_crowds(rig, cfg)?;
     let (center, _) = rig.bounds();
@@ -380,7 +359,13 @@ pub fn format_table(rows: &[SweepRow]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::import::tests::asset;
+    use std::path::PathBuf;
+
+    fn asset(name: &str) -> PathBuf {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../assets/gltf")
+            .join(name)
+    }
 
     fn thesis() -> (Arc<Rig>, ClipId) {
         let base = Rig::from_gltf_path(&asset("GDQuest_GDBot.glb")).unwrap();

@@ -1,0 +1,17 @@
+//! The offline side of slod: the papers' experiments, their baselines and the helpers that
+//! report them. Nothing here is needed to run slod in an engine; the demo, the tests and the
+//! benches use it to measure the runtime crates.
+//!
+//! - [`net`] — the simulation paper's swinging net (`simulation-lod-treecut-softbody-bswdf.txt`,
+//!   section 6): a full-resolution reference, feedback runs and static cuts, measured.
+//! - [`crowd`] — the thesis' crowd test (`animation-lod-bone-priority-thesis.txt`, chapter 13).
+//! - [`rig`] — rigs built for the experiments from real ones ([`rig::grown_to`]).
+//! - [`rng`] — the one seeded generator; [`table`] — aligned plain-text tables.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod crowd;
+pub mod net;
+pub mod rig;
+pub mod rng;
+pub mod table;
