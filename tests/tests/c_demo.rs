@@ -15,7 +15,7 @@ fn demo() -> &'static PathBuf {
         let dir = scratch_dir("c-demo");
         build_executable(
             Lang::C,
-            "-std=c11",
+            "c11",
             &[repo_root().join("examples-c/demo.c")],
             &dir.join("demo"),
         )
