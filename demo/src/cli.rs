@@ -1,8 +1,13 @@
-//! The command line, parsed by hand: `slod-demo [net|crowd] [options]`. Every bad input gives a
-//! message naming the option and what it expects; the caller prints it with the usage and
-//! exits with [`EXIT_USAGE`]. Nothing here panics, whatever the arguments.
+//! The command line, `slod-demo [net|crowd] [options]`, parsed by `clap` (derive) into
+//! [`Options`]. Every bad input gives a message naming the option and what it expects; the
+//! caller prints it with the usage and exits with [`EXIT_USAGE`]. Nothing here panics, whatever
+//! the arguments.
 
+use std::error::Error as _;
 use std::path::PathBuf;
+
+use clap::error::{ContextKind, ContextValue, ErrorKind};
+use clap::{ArgMatches, CommandFactory, FromArgMatches, Parser};
 
 use crate::error::DemoError;
 
@@ -21,7 +26,11 @@ const MAX_REFERENCE_BYTES: u64 = 3 << 30;
 
 /// The usage text printed by `--help` and after every command-line error.
 pub fn usage() -> &'static str {
-    "\
+    USAGE
+}
+
+/// See [`usage`]; also clap's help text for [`Cli`].
+const USAGE: &str = "\
 slod-demo: simulation and animation level of detail, measured beside the papers
 
 USAGE:
@@ -55,8 +64,7 @@ EXAMPLES:
     cargo run --release -p slod-demo
     cargo run --release -p slod-demo -- net --size 129 --compression 50%,25%
     cargo run --release -p slod-demo -- crowd --characters 400 --budget 20000 --out runs/budget
-"
-}
+";
 
 /// Which experiments run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -158,159 +166,144 @@ fn usage_error(message: String) -> DemoError {
     DemoError::Usage(message)
 }
 
+/// One word without a leading `-`: a command, or `help`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Word {
+    /// `net`, `crowd` or `all`.
+    Run(Section),
+    /// `help`, as `--help`.
+    Help,
+}
+
+/// A `--compression` list (a newtype, so that clap takes it as one value).
+#[derive(Clone, Debug)]
+struct Compressions(Vec<f32>);
+
+/// The command line as clap sees it. Each option's doc comment is the hint a missing value
+/// gets; the value parsers give the other messages. [`parse`] turns it into [`Options`].
+#[derive(Debug, Parser)]
+#[command(
+    name = "slod-demo",
+    override_help = USAGE,
+    disable_version_flag = true,
+    args_override_self = true
+)]
+struct Cli {
+    /// a command
+    #[arg(value_name = "COMMAND", value_parser = word)]
+    words: Vec<Word>,
+    /// a directory
+    #[arg(long, value_parser = non_empty("--out"))]
+    out: Option<String>,
+    /// no value
+    #[arg(long)]
+    quick: bool,
+    /// vertices per side, e.g. 65
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_parser = whole::<u32>("--size", 3, MAX_SIZE.into()),
+    )]
+    size: Option<u32>,
+    /// steps per run, e.g. 600
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_parser = whole::<u32>("--steps", 1, 1_000_000),
+    )]
+    steps: Option<u32>,
+    /// e.g. 1,0.75,0.3
+    #[arg(long, allow_negative_numbers = true, value_parser = compressions)]
+    compression: Option<Compressions>,
+    /// milliseconds per step, e.g. 0.5
+    #[arg(long, allow_negative_numbers = true, value_parser = target_ms)]
+    target_ms: Option<f32>,
+    /// a .glb or .gltf file
+    #[arg(long, value_parser = gltf_file)]
+    gltf: Option<PathBuf>,
+    /// an animation name, e.g. walk
+    #[arg(long, value_parser = non_empty("--clip"))]
+    clip: Option<String>,
+    /// number of characters, e.g. 100
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_parser = whole::<usize>("--characters", 1, 100_000),
+    )]
+    characters: Option<usize>,
+    /// MIN,MAX, e.g. 200,1700
+    #[arg(long, allow_negative_numbers = true, value_parser = range, conflicts_with = "budget")]
+    range: Option<CrowdLod>,
+    /// bone interpolations per frame, e.g. 5000
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_parser = whole::<u32>("--budget", 1, u32::MAX.into()),
+    )]
+    budget: Option<u32>,
+}
+
+/// The net's options (clap id, flag), to refuse them with the `crowd` command.
+const NET_OPTIONS: [(&str, &str); 4] = [
+    ("size", "--size"),
+    ("steps", "--steps"),
+    ("compression", "--compression"),
+    ("target_ms", "--target-ms"),
+];
+
+/// The crowd's options (clap id, flag), to refuse them with the `net` command.
+const CROWD_OPTIONS: [(&str, &str); 5] = [
+    ("gltf", "--gltf"),
+    ("clip", "--clip"),
+    ("characters", "--characters"),
+    ("range", "--range"),
+    ("budget", "--budget"),
+];
+
 /// Parses the arguments (without the program name).
 pub(crate) fn parse(args: &[String]) -> Result<Parsed, DemoError> {
-    let mut section: Option<Section> = None;
-    let mut out: Option<PathBuf> = None;
-    let mut quick = false;
-    let mut net = NetOptions::default();
-    let mut crowd = CrowdOptions::default();
-    // Which section each given option belongs to, to refuse e.g. `crowd --size 9`.
-    let mut net_option: Option<&str> = None;
-    let mut crowd_option: Option<&str> = None;
+    let argv = std::iter::once("slod-demo").chain(args.iter().map(String::as_str));
+    let matches = match Cli::command().try_get_matches_from(argv) {
+        Ok(m) => m,
+        Err(e) if e.kind() == ErrorKind::DisplayHelp => return Ok(Parsed::Help),
+        Err(e) => return Err(usage_error(message(&e))),
+    };
+    let cli = Cli::from_arg_matches(&matches).map_err(|e| usage_error(message(&e)))?;
 
-    let mut i = 0;
-    while i < args.len() {
-        let arg = args[i].as_str();
-        i += 1;
-        if arg == "-h" || arg == "--help" || arg == "help" {
-            return Ok(Parsed::Help);
-        }
-        if !arg.starts_with('-') {
-            let s = match arg {
-                "net" => Section::Net,
-                "crowd" => Section::Crowd,
-                "all" => Section::All,
-                _ => {
-                    return Err(usage_error(format!(
-                        "unknown command `{arg}` (expected `net`, `crowd` or none)"
-                    )));
-                }
-            };
-            if let Some(previous) = section {
-                return Err(usage_error(format!(
-                    "two commands given (`{}` and `{arg}`): run one at a time",
-                    previous.name()
-                )));
-            }
-            section = Some(s);
-            continue;
-        }
-        // `--name=value` or `--name value`.
-        let (name, inline) = match arg.split_once('=') {
-            Some((n, v)) => (n, Some(v.to_string())),
-            None => (arg, None),
-        };
-        let mut value = |what: &str| -> Result<String, DemoError> {
-            if let Some(v) = inline.clone() {
-                return Ok(v);
-            }
-            match args.get(i) {
-                Some(v) if !v.starts_with("--") => {
-                    i += 1;
-                    Ok(v.clone())
-                }
-                _ => Err(usage_error(format!("`{name}` needs a value ({what})"))),
-            }
-        };
-        match name {
-            "--out" => out = Some(PathBuf::from(non_empty(name, value("a directory")?)?)),
-            "--quick" => {
-                if inline.is_some() {
-                    return Err(usage_error("`--quick` takes no value".into()));
-                }
-                quick = true;
-            }
-            "--size" => {
-                let v = parse_int(
-                    name,
-                    &value("vertices per side, e.g. 65")?,
-                    3,
-                    MAX_SIZE as u64,
-                )?;
-                net.size = Some(v as u32);
-                net_option = Some("--size");
-            }
-            "--steps" => {
-                let v = parse_int(name, &value("steps per run, e.g. 600")?, 1, 1_000_000)?;
-                net.steps = Some(v as u32);
-                net_option = Some("--steps");
-            }
-            "--compression" => {
-                net.compressions = Some(parse_compressions(&value("e.g. 1,0.75,0.3")?)?);
-                net_option = Some("--compression");
-            }
-            "--target-ms" => {
-                let v = parse_float(name, &value("milliseconds per step, e.g. 0.5")?)?;
-                if v <= 0.0 {
-                    return Err(usage_error(format!(
-                        "`--target-ms` must be positive, got {v}"
-                    )));
-                }
-                net.target_ms = Some(v);
-                net_option = Some("--target-ms");
-            }
-            "--gltf" => {
-                let path = PathBuf::from(non_empty(name, value("a .glb or .gltf file")?)?);
-                if !path.is_file() {
-                    return Err(usage_error(format!(
-                        "`--gltf`: no such file: {}",
-                        path.display()
-                    )));
-                }
-                crowd.gltf = Some(path);
-                crowd_option = Some("--gltf");
-            }
-            "--clip" => {
-                crowd.clip = Some(non_empty(name, value("an animation name, e.g. walk")?)?);
-                crowd_option = Some("--clip");
-            }
-            "--characters" => {
-                let v = parse_int(name, &value("number of characters, e.g. 100")?, 1, 100_000)?;
-                crowd.characters = Some(v as usize);
-                crowd_option = Some("--characters");
-            }
-            "--range" => {
-                if matches!(crowd.lod, Some(CrowdLod::Budget(_))) {
-                    return Err(usage_error(
-                        "`--range` and `--budget` exclude each other: choose one".into(),
-                    ));
-                }
-                crowd.lod = Some(parse_range(&value("MIN,MAX, e.g. 200,1700")?)?);
-                crowd_option = Some("--range");
-            }
-            "--budget" => {
-                if matches!(crowd.lod, Some(CrowdLod::Range { .. })) {
-                    return Err(usage_error(
-                        "`--range` and `--budget` exclude each other: choose one".into(),
-                    ));
-                }
-                let v = parse_int(
-                    name,
-                    &value("bone interpolations per frame, e.g. 5000")?,
-                    1,
-                    u32::MAX as u64,
-                )?;
-                crowd.lod = Some(CrowdLod::Budget(v as u32));
-                crowd_option = Some("--budget");
-            }
-            _ => return Err(usage_error(format!("unknown option `{name}`"))),
-        }
+    if cli.words.contains(&Word::Help) {
+        return Ok(Parsed::Help);
     }
-
-    let section = section.unwrap_or(Section::All);
-    if let (Section::Crowd, Some(o)) = (section, net_option) {
+    let sections: Vec<Section> = cli
+        .words
+        .iter()
+        .filter_map(|w| match w {
+            Word::Run(s) => Some(*s),
+            Word::Help => None,
+        })
+        .collect();
+    let section = match sections.as_slice() {
+        [] => Section::All,
+        [s] => *s,
+        [first, second, ..] => {
+            return Err(usage_error(format!(
+                "two commands given (`{}` and `{}`): run one at a time",
+                first.name(),
+                second.name()
+            )));
+        }
+    };
+    if let (Section::Crowd, Some(o)) = (section, last_given(&matches, &NET_OPTIONS)) {
         return Err(usage_error(format!(
             "`{o}` is a net option; the `crowd` command does not run the net"
         )));
     }
-    if let (Section::Net, Some(o)) = (section, crowd_option) {
+    if let (Section::Net, Some(o)) = (section, last_given(&matches, &CROWD_OPTIONS)) {
         return Err(usage_error(format!(
             "`{o}` is a crowd option; the `net` command does not run the crowd"
         )));
     }
-    let size = net.size.unwrap_or(65) as u64;
-    let steps = net.steps.unwrap_or(600) as u64;
+    let size = cli.size.unwrap_or(65) as u64;
+    let steps = cli.steps.unwrap_or(600) as u64;
     let bytes = size * size * steps * 12;
     if section.net() && bytes > MAX_REFERENCE_BYTES {
         return Err(usage_error(format!(
@@ -322,76 +315,168 @@ pub(crate) fn parse(args: &[String]) -> Result<Parsed, DemoError> {
     }
     Ok(Parsed::Run(Options {
         section,
-        out: out.unwrap_or_else(|| PathBuf::from("out")),
-        quick,
-        net,
-        crowd,
+        out: PathBuf::from(cli.out.as_deref().unwrap_or("out")),
+        quick: cli.quick,
+        net: NetOptions {
+            size: cli.size,
+            steps: cli.steps,
+            compressions: cli.compression.map(|c| c.0),
+            target_ms: cli.target_ms,
+        },
+        crowd: CrowdOptions {
+            gltf: cli.gltf,
+            clip: cli.clip,
+            characters: cli.characters,
+            lod: cli.range.or(cli.budget.map(CrowdLod::Budget)),
+        },
     }))
 }
 
-fn non_empty(name: &str, v: String) -> Result<String, DemoError> {
-    if v.trim().is_empty() {
-        Err(usage_error(format!("`{name}` needs a non-empty value")))
-    } else {
-        Ok(v)
+/// The flag of `options` given last on the command line, if any.
+fn last_given<'a>(matches: &ArgMatches, options: &[(&str, &'a str)]) -> Option<&'a str> {
+    options
+        .iter()
+        .filter_map(|&(id, flag)| Some((matches.index_of(id)?, flag)))
+        .max_by_key(|&(index, _)| index)
+        .map(|(_, flag)| flag)
+}
+
+/// Our message for a clap error: the value parsers' own text, or one in the same style for
+/// what clap itself refuses.
+fn message(e: &clap::Error) -> String {
+    // "--size <N>" -> "--size".
+    let flag = match e.get(ContextKind::InvalidArg) {
+        Some(ContextValue::String(s)) => s.split_whitespace().next().unwrap_or(s).to_string(),
+        _ => String::new(),
+    };
+    match e.kind() {
+        ErrorKind::ValueValidation => {
+            if let Some(source) = e.source() {
+                return source.to_string();
+            }
+        }
+        ErrorKind::UnknownArgument => return format!("unknown option `{flag}`"),
+        ErrorKind::InvalidValue | ErrorKind::NoEquals => {
+            let hint = Cli::command()
+                .get_arguments()
+                .find(|a| a.get_long().is_some_and(|l| flag == format!("--{l}")))
+                .and_then(|a| a.get_help().map(ToString::to_string));
+            return match hint {
+                Some(hint) => format!("`{flag}` needs a value ({hint})"),
+                None => format!("`{flag}` needs a value"),
+            };
+        }
+        ErrorKind::TooManyValues => return format!("`{flag}` takes no value"),
+        // The only conflict declared.
+        ErrorKind::ArgumentConflict => {
+            return "`--range` and `--budget` exclude each other: choose one".into();
+        }
+        _ => {}
+    }
+    // Anything else: clap's own first line, without its `error: `.
+    let text = e.render().to_string();
+    let line = text.lines().next().unwrap_or_default();
+    line.strip_prefix("error: ").unwrap_or(line).to_string()
+}
+
+fn word(v: &str) -> Result<Word, String> {
+    Ok(match v {
+        "net" => Word::Run(Section::Net),
+        "crowd" => Word::Run(Section::Crowd),
+        "all" => Word::Run(Section::All),
+        "help" => Word::Help,
+        _ => {
+            return Err(format!(
+                "unknown command `{v}` (expected `net`, `crowd` or none)"
+            ));
+        }
+    })
+}
+
+fn non_empty(name: &'static str) -> impl Fn(&str) -> Result<String, String> + Clone {
+    move |v| {
+        if v.trim().is_empty() {
+            Err(format!("`{name}` needs a non-empty value"))
+        } else {
+            Ok(v.to_string())
+        }
     }
 }
 
-fn parse_int(name: &str, v: &str, min: u64, max: u64) -> Result<u64, DemoError> {
-    let n: u64 = v
-        .trim()
-        .parse()
-        .map_err(|_| usage_error(format!("`{name}` expects a whole number, got `{v}`")))?;
-    if n < min || n > max {
-        return Err(usage_error(format!(
-            "`{name}` must be in {min}..={max}, got {n}"
-        )));
+/// A whole number in `min..=max` (which fits `T`).
+fn whole<T: TryFrom<u64>>(
+    name: &'static str,
+    min: u64,
+    max: u64,
+) -> impl Fn(&str) -> Result<T, String> + Clone {
+    move |v| {
+        let n: u64 = v
+            .trim()
+            .parse()
+            .map_err(|_| format!("`{name}` expects a whole number, got `{v}`"))?;
+        if n < min || n > max {
+            return Err(format!("`{name}` must be in {min}..={max}, got {n}"));
+        }
+        T::try_from(n).map_err(|_| format!("`{name}` must be in {min}..={max}, got {n}"))
     }
-    Ok(n)
 }
 
-fn parse_float(name: &str, v: &str) -> Result<f32, DemoError> {
+fn number(name: &str, v: &str) -> Result<f32, String> {
     let x: f32 = v
         .trim()
         .parse()
-        .map_err(|_| usage_error(format!("`{name}` expects a number, got `{v}`")))?;
+        .map_err(|_| format!("`{name}` expects a number, got `{v}`"))?;
     if !x.is_finite() {
-        return Err(usage_error(format!("`{name}` must be finite, got `{v}`")));
+        return Err(format!("`{name}` must be finite, got `{v}`"));
     }
     Ok(x)
 }
 
+fn target_ms(v: &str) -> Result<f32, String> {
+    let ms = number("--target-ms", v)?;
+    if ms <= 0.0 {
+        return Err(format!("`--target-ms` must be positive, got {ms}"));
+    }
+    Ok(ms)
+}
+
+fn gltf_file(v: &str) -> Result<PathBuf, String> {
+    let path = PathBuf::from(non_empty("--gltf")(v)?);
+    if !path.is_file() {
+        return Err(format!("`--gltf`: no such file: {}", path.display()));
+    }
+    Ok(path)
+}
+
 /// `1,0.75,0.3` or `100%,75%,30%`: fractions in (0, 1].
-fn parse_compressions(v: &str) -> Result<Vec<f32>, DemoError> {
+fn compressions(v: &str) -> Result<Compressions, String> {
     let mut list = Vec::new();
     for item in v.split(',') {
         let item = item.trim();
-        let (number, scale) = match item.strip_suffix('%') {
+        let (number_text, scale) = match item.strip_suffix('%') {
             Some(n) => (n, 0.01),
             None => (item, 1.0),
         };
-        let c = parse_float("--compression", number)? * scale;
+        let c = number("--compression", number_text)? * scale;
         if !(c > 0.0 && c <= 1.0) {
-            return Err(usage_error(format!(
+            return Err(format!(
                 "`--compression` values must be in (0, 1] (or (0%, 100%]), got `{item}`"
-            )));
+            ));
         }
         list.push(c);
     }
-    Ok(list)
+    Ok(Compressions(list))
 }
 
-fn parse_range(v: &str) -> Result<CrowdLod, DemoError> {
+fn range(v: &str) -> Result<CrowdLod, String> {
     let Some((a, b)) = v.split_once(',') else {
-        return Err(usage_error(format!(
+        return Err(format!(
             "`--range` expects MIN,MAX (e.g. 200,1700), got `{v}`"
-        )));
+        ));
     };
-    let (min, max) = (parse_float("--range", a)?, parse_float("--range", b)?);
+    let (min, max) = (number("--range", a)?, number("--range", b)?);
     if !(min >= 0.0 && min < max) {
-        return Err(usage_error(format!(
-            "`--range` needs 0 <= MIN < MAX, got {min},{max}"
-        )));
+        return Err(format!("`--range` needs 0 <= MIN < MAX, got {min},{max}"));
     }
     Ok(CrowdLod::Range { min, max })
 }
@@ -457,6 +542,15 @@ mod tests {
             run("crowd --budget 500").crowd.lod,
             Some(CrowdLod::Budget(500))
         );
+    }
+
+    #[test]
+    fn clap_command_is_consistent() {
+        Cli::command().debug_assert();
+        assert_eq!(Cli::command().render_help().to_string(), usage());
+        // A repeated option keeps its last value, as the hand parser did.
+        assert_eq!(run("net --size 9 --size=17").net.size, Some(17));
+        assert_eq!(run("-- crowd").section, Section::Crowd);
     }
 
     #[test]

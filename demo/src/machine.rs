@@ -2,6 +2,7 @@
 //! profile, load and time. Everything is read from cheap sources (`/proc`, `/etc/os-release`,
 //! one `rustc --version`); anything unavailable is `null` in the report, never an error.
 
+use std::fmt::Write as _;
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use serde::Serialize;
@@ -29,8 +30,9 @@ pub(crate) struct Machine {
     /// 1-minute load average when the run started (`/proc/loadavg`), or null: a busy machine
     /// makes every timing slower.
     pub(crate) load_average_1min: Option<f64>,
-    /// Start of the run, UTC, ISO 8601.
-    pub(crate) started_utc: String,
+    /// Start of the run, UTC, ISO 8601 (`YYYY-MM-DDThh:mm:ssZ`), or null when the clock is
+    /// before 1970.
+    pub(crate) started_utc: Option<String>,
     /// Start of the run, seconds since the Unix epoch.
     pub(crate) started_unix_s: u64,
 }
@@ -38,10 +40,7 @@ pub(crate) struct Machine {
 impl Machine {
     /// Reads everything now.
     pub(crate) fn detect() -> Machine {
-        let now = SystemTime::now()
-            .duration_since(UNIX_EPOCH)
-            .map(|d| d.as_secs())
-            .unwrap_or(0);
+        let now = SystemTime::now();
         Machine {
             cpu_model: cpu_model(),
             logical_cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -57,8 +56,8 @@ impl Machine {
             },
             load_average_1min: read_trimmed("/proc/loadavg")
                 .and_then(|s| s.split_whitespace().next()?.parse().ok()),
-            started_utc: iso8601(now),
-            started_unix_s: now,
+            started_utc: utc_timestamp(now),
+            started_unix_s: now.duration_since(UNIX_EPOCH).map_or(0, |d| d.as_secs()),
         }
     }
 
@@ -121,37 +120,36 @@ fn rustc_version() -> Option<String> {
     (out.status.success() && !s.is_empty()).then(|| s.to_string())
 }
 
-/// Seconds since the epoch as `YYYY-MM-DDThh:mm:ssZ` (proleptic Gregorian calendar).
-pub(crate) fn iso8601(unix_s: u64) -> String {
-    let days = (unix_s / 86_400) as i64;
-    let secs = unix_s % 86_400;
-    // Days to civil date (Howard Hinnant's algorithm, era-based).
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z.rem_euclid(146_097);
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let day = doy - (153 * mp + 2) / 5 + 1;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 };
-    let year = yoe + era * 400 + i64::from(month <= 2);
-    format!(
-        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}Z",
-        secs / 3600,
-        secs / 60 % 60,
-        secs % 60
-    )
+/// `time` as `YYYY-MM-DDThh:mm:ssZ` (RFC 3339 / ISO 8601, UTC, whole seconds), or `None` for a
+/// time `humantime` cannot format: before 1970 (a clock set wrong) or after 9999.
+fn utc_timestamp(time: SystemTime) -> Option<String> {
+    // `humantime`'s Display panics before the epoch and fails after 9999: check the first,
+    // catch the second through `write!`.
+    time.duration_since(UNIX_EPOCH).ok()?;
+    let mut text = String::new();
+    write!(text, "{}", humantime::format_rfc3339_seconds(time)).ok()?;
+    Some(text)
 }
 
 #[cfg(test)]
 mod tests {
+    use std::time::Duration;
+
     use super::*;
 
     #[test]
     fn iso8601_known_dates() {
-        assert_eq!(iso8601(0), "1970-01-01T00:00:00Z");
-        assert_eq!(iso8601(951_782_400), "2000-02-29T00:00:00Z");
-        assert_eq!(iso8601(1_700_000_000), "2023-11-14T22:13:20Z");
-        assert_eq!(iso8601(4_107_542_399), "2100-02-28T23:59:59Z");
+        let at = |s: u64| utc_timestamp(UNIX_EPOCH + Duration::from_secs(s));
+        assert_eq!(at(0).as_deref(), Some("1970-01-01T00:00:00Z"));
+        assert_eq!(at(951_782_400).as_deref(), Some("2000-02-29T00:00:00Z"));
+        assert_eq!(at(1_700_000_000).as_deref(), Some("2023-11-14T22:13:20Z"));
+        assert_eq!(at(4_107_542_399).as_deref(), Some("2100-02-28T23:59:59Z"));
+    }
+
+    #[test]
+    fn times_humantime_cannot_format_are_none() {
+        assert_eq!(utc_timestamp(UNIX_EPOCH - Duration::from_secs(1)), None);
+        let year_10000 = UNIX_EPOCH + Duration::from_secs(253_402_300_800);
+        assert_eq!(utc_timestamp(year_10000), None);
     }
 }

@@ -7,8 +7,9 @@
 //! in `target/<profile>/` is refreshed only when `slod` is a selected package
 //! (`cargo test --workspace`), so it is only the fallback.
 //!
-//! Compilers: `$CC` / `$CXX` when set, else the first of `cc`, `gcc`, `clang` (C) or `c++`,
-//! `g++`, `clang++` (C++) that answers `--version`.
+//! Compilers: the `cc` crate's choice for the target this test run was built for (`$CC` / `$CXX`
+//! and their target-specific variants when set, else the platform's default), with its default
+//! flags for that target; `build.rs` hands cargo's `TARGET` and `HOST` to this code for it.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -16,9 +17,6 @@ use std::process::{Command, Output};
 /// Libraries a Rust static library needs from the system on Linux (threads, dynamic loading,
 /// math); the C runtime and libgcc come with the compiler driver.
 pub const SYSTEM_LIBS: [&str; 3] = ["-lpthread", "-ldl", "-lm"];
-
-/// Warnings the hosts must compile without.
-pub const WARNINGS: [&str; 4] = ["-Wall", "-Wextra", "-Werror", "-pedantic"];
 
 /// The repository root (the workspace directory).
 pub fn repo_root() -> PathBuf {
@@ -82,26 +80,36 @@ pub fn available(program: &str) -> bool {
         .is_ok_and(|o| o.status.success())
 }
 
-/// The compiler for `lang` (see the module docs); panics if none is installed.
-pub fn compiler(lang: Lang) -> String {
-    let (var, candidates): (&str, &[&str]) = match lang {
-        Lang::C => ("CC", &["cc", "gcc", "clang"]),
-        Lang::Cxx => ("CXX", &["c++", "g++", "clang++"]),
-    };
-    if let Ok(cc) = std::env::var(var) {
-        if !cc.trim().is_empty() {
-            return cc;
-        }
-    }
-    candidates
-        .iter()
-        .find(|c| available(c))
-        .map(|c| c.to_string())
-        .unwrap_or_else(|| {
-            panic!("no {lang:?} compiler: set ${var} or install one of {candidates:?}")
-        })
+/// A `cc` build for `lang` and the target of this test run: language standard `std` (e.g.
+/// `c11`), every warning an error (`-Wall -Wextra -Werror -pedantic`), `-O1`, no debug info, `include/` on the
+/// include path. It prints nothing for cargo (this is not a build script).
+pub fn cc_build(lang: Lang, std: &str) -> cc::Build {
+    let mut build = cc::Build::new();
+    build
+        .target(env!("TARGET"))
+        .host(env!("HOST"))
+        .cpp(lang == Lang::Cxx)
+        .std(std)
+        .opt_level(1)
+        .debug(false)
+        .warnings(true) // -Wall -Wextra
+        .warnings_into_errors(true) // -Werror
+        .flag("-pedantic")
+        .include(repo_root().join("include"))
+        // Where cc puts its compiler-detection probes (this crate's build-script directory).
+        .out_dir(env!("OUT_DIR"))
+        .cargo_metadata(false)
+        .cargo_warnings(false);
+    build
 }
 
+/// The compiler command of `build` with all its flags; panics if there is no compiler.
+pub fn compiler_command(build: &cc::Build) -> Command {
+    build
+        .try_get_compiler()
+        .unwrap_or_else(|e| panic!("no C/C++ compiler for {}: {e}", env!("TARGET")))
+        .to_command()
+}
 /// Runs a command to completion, panicking if it cannot start.
 pub fn run(cmd: &mut Command) -> Output {
     cmd.output()
@@ -122,15 +130,10 @@ pub fn run_ok(cmd: &mut Command) -> String {
 }
 
 /// Compiles and links `sources` into executable `out` against the static library, with `std`
-/// (e.g. `-std=c11`) and every warning an error.
+/// (e.g. `c11`) and every warning an error (see [`cc_build`]).
 pub fn build_executable(lang: Lang, std: &str, sources: &[PathBuf], out: &Path) -> PathBuf {
-    let mut cmd = Command::new(compiler(lang));
-    cmd.arg(std)
-        .args(WARNINGS)
-        .arg("-O1")
-        .arg("-I")
-        .arg(repo_root().join("include"))
-        .args(sources)
+    let mut cmd = compiler_command(&cc_build(lang, std));
+    cmd.args(sources)
         .arg("-o")
         .arg(out)
         .arg(static_library())

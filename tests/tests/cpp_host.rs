@@ -6,7 +6,7 @@
 use std::process::Command;
 
 use slod_tests::native::{
-    Lang, WARNINGS, build_executable, compiler, repo_root, run_ok, scratch_dir,
+    Lang, build_executable, cc_build, compiler_command, repo_root, run_ok, scratch_dir,
 };
 
 /// Compiles a one-line translation unit including `header` as `lang`/`std`.
@@ -20,11 +20,7 @@ fn compile_alone(lang: Lang, std: &str, header: &str, name: &str) {
     )
     .expect("write source");
     run_ok(
-        Command::new(compiler(lang))
-            .arg(std)
-            .args(WARNINGS)
-            .arg("-I")
-            .arg(repo_root().join("include"))
+        compiler_command(&cc_build(lang, std))
             .arg("-c")
             .arg(&src)
             .arg("-o")
@@ -34,17 +30,17 @@ fn compile_alone(lang: Lang, std: &str, header: &str, name: &str) {
 
 #[test]
 fn header_compiles_alone_as_c11() {
-    compile_alone(Lang::C, "-std=c11", "slod.h", "header-c11");
+    compile_alone(Lang::C, "c11", "slod.h", "header-c11");
 }
 
 #[test]
 fn header_compiles_alone_as_cxx17() {
-    compile_alone(Lang::Cxx, "-std=c++17", "slod.h", "header-cxx17");
+    compile_alone(Lang::Cxx, "c++17", "slod.h", "header-cxx17");
 }
 
 #[test]
 fn wrapper_compiles_alone_as_cxx17() {
-    compile_alone(Lang::Cxx, "-std=c++17", "slod.hpp", "wrapper-cxx17");
+    compile_alone(Lang::Cxx, "c++17", "slod.hpp", "wrapper-cxx17");
 }
 
 #[test]
@@ -52,7 +48,7 @@ fn cpp_host_drives_a_cloth_and_a_crowd() {
     let dir = scratch_dir("cpp-host");
     let exe = build_executable(
         Lang::Cxx,
-        "-std=c++17",
+        "c++17",
         &[repo_root().join("tests/cpp/host.cpp")],
         &dir.join("host"),
     );

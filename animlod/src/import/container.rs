@@ -5,6 +5,8 @@
 use std::borrow::Cow;
 use std::path::{Component, Path};
 
+use base64::alphabet;
+use base64::engine::{DecodePaddingMode, Engine, GeneralPurpose, GeneralPurposeConfig};
 use serde_json::Value;
 
 use crate::error::ImportError;
@@ -104,50 +106,42 @@ pub(crate) fn prepass(json: &[u8]) -> Result<Value, ImportError> {
     Ok(value)
 }
 
-fn base64_value(c: u8) -> Option<u32> {
-    Some(match c {
-        b'A'..=b'Z' => c - b'A',
-        b'a'..=b'z' => c - b'a' + 26,
-        b'0'..=b'9' => c - b'0' + 52,
-        b'+' | b'-' => 62,
-        b'/' | b'_' => 63,
-        _ => return None,
-    } as u32)
-}
+/// Standard and URL-safe base64, padding optional, trailing bits not checked: what glTF writers
+/// put in data URIs (RFC 2397 asks for the standard alphabet; some tools write the URL-safe one).
+const BASE64_CONFIG: GeneralPurposeConfig = GeneralPurposeConfig::new()
+    .with_decode_padding_mode(DecodePaddingMode::Indifferent)
+    .with_decode_allow_trailing_bits(true);
+const BASE64_STANDARD: GeneralPurpose = GeneralPurpose::new(&alphabet::STANDARD, BASE64_CONFIG);
+const BASE64_URL_SAFE: GeneralPurpose = GeneralPurpose::new(&alphabet::URL_SAFE, BASE64_CONFIG);
 
 /// Decodes standard (or URL-safe) base64, with or without padding.
+///
+/// `gltf` 1.4.1 decodes data URIs only in `gltf::import`, behind its `import` feature (which also
+/// pulls in the `image` crate and loads images); we build it without default features and read
+/// the buffers ourselves, so the decoding is here, done by the `base64` crate.
 pub(crate) fn decode_base64(text: &str) -> Option<Vec<u8>> {
-    let text = text.trim_end_matches('=').as_bytes();
-    let mut out = Vec::with_capacity(text.len() * 3 / 4);
-    let mut acc = 0u32;
-    let mut bits = 0;
-    for &c in text {
-        acc = (acc << 6) | base64_value(c)?;
-        bits += 6;
-        if bits >= 8 {
-            bits -= 8;
-            out.push((acc >> bits) as u8);
-            acc &= (1 << bits) - 1;
-        }
-    }
-    (bits < 6).then_some(out)
+    BASE64_STANDARD
+        .decode(text)
+        .or_else(|_| BASE64_URL_SAFE.decode(text))
+        .ok()
 }
 
+/// Percent-decodes a relative URI into a UTF-8 path; `None` for a `%` not followed by two hex
+/// digits or for bytes that are not UTF-8 (the `percent-encoding` crate itself passes malformed
+/// escapes through unchanged, so they are refused here first).
 fn percent_decode(s: &str) -> Option<String> {
-    let b = s.as_bytes();
-    let mut out = Vec::with_capacity(b.len());
-    let mut i = 0;
-    while i < b.len() {
-        if b[i] == b'%' {
-            let hex = std::str::from_utf8(b.get(i + 1..i + 3)?).ok()?;
-            out.push(u8::from_str_radix(hex, 16).ok()?);
-            i += 3;
-        } else {
-            out.push(b[i]);
-            i += 1;
-        }
+    let well_formed = s.match_indices('%').all(|(i, _)| {
+        s.as_bytes()
+            .get(i + 1..i + 3)
+            .is_some_and(|hex| hex.iter().all(u8::is_ascii_hexdigit))
+    });
+    if !well_formed {
+        return None;
     }
-    String::from_utf8(out).ok()
+    percent_encoding::percent_decode_str(s)
+        .decode_utf8()
+        .ok()
+        .map(Cow::into_owned)
 }
 
 /// Loads the bytes of one buffer: the GLB binary chunk, a data URI, or a file relative to
@@ -212,6 +206,18 @@ mod tests {
         assert_eq!(decode_base64("").unwrap(), b"");
         assert!(decode_base64("T!==").is_none());
         assert!(decode_base64("T").is_none());
+        assert_eq!(decode_base64("TWE").unwrap(), b"Ma");
+        assert_eq!(decode_base64("-_8=").unwrap(), [0xfb, 0xff]);
+        assert_eq!(decode_base64("+/8").unwrap(), [0xfb, 0xff]);
+    }
+
+    #[test]
+    fn percent_decoding() {
+        assert_eq!(percent_decode("a%20b/c%2Ebin").unwrap(), "a b/c.bin");
+        assert_eq!(percent_decode("plain.bin").unwrap(), "plain.bin");
+        for bad in ["a%zz.bin", "a%4", "%", "%FF"] {
+            assert!(percent_decode(bad).is_none(), "{bad}");
+        }
     }
 
     #[test]
