@@ -1,0 +1,165 @@
+//! The feedback loop's settings: what the cut may spend ([`ClothBudget`]), how salience becomes
+//! a priority ([`PriorityModel`]) and the loop's parameters ([`FeedbackSettings`]).
+
+use salience::{BswdfParams, Sidedness};
+use treecut::{EvaluatorSettings, MergeKey};
+
+use crate::cloth::controller::ControllerSettings;
+use crate::cloth::error::ClothError;
+
+/// What the cut may spend.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ClothBudget {
+    /// At most this many simulated nodes (≥ 1).
+    Nodes(usize),
+    /// This fraction of the full-resolution node count, in (0, 1] (the paper's "compression":
+    /// 0.3 simulates 30% of the nodes).
+    Compression(f32),
+    /// A target time per step in milliseconds (> 0, evaluation included); a controller moves
+    /// the node budget to hold it. Results then depend on the machine's speed, so runs are not
+    /// bit-identical.
+    TargetStepMs(f32),
+}
+
+/// How salience becomes a node's priority.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum PriorityModel {
+    /// The BSWDF value itself, as in the paper.
+    Salience,
+    /// The BSWDF value times the node's projected radius in pixels: salience says how much a
+    /// viewer cares about detail at a point, the projected size how many pixels the missing
+    /// detail of a coarse node spans. A parent spans about twice its children's radius, so its
+    /// priority ranks above theirs at equal salience, and refining the biggest visible error
+    /// first is what spends a node budget best (measured in `cloth::tests`).
+    #[default]
+    ScreenError,
+}
+
+/// Settings of the feedback loop.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FeedbackSettings {
+    /// Evaluate every `interval` steps (≥ 1; the paper's k).
+    pub interval: u32,
+    /// What the cut may spend.
+    pub budget: ClothBudget,
+    /// Minimum priority gain for swapping detail from one place to another (≥ 0, same unit as
+    /// the priorities: salience-weighted pixels with [`PriorityModel::ScreenError`]). Keeps
+    /// nodes from being refined and coarsened back and forth. Default 6: on the swinging net,
+    /// 2 undid 1–12% of the operations within 30 steps, 4–5 about 1.5%, 6 none, with the same
+    /// error (measured with `run_net`).
+    pub hysteresis: f32,
+    /// Most operations begun per evaluation (≥ 1); bounds the work of one step.
+    pub max_ops: usize,
+    /// How salience becomes priority.
+    pub priority: PriorityModel,
+    /// BSWDF constants. The default is [`BswdfParams::default`] made two-sided (cloth has no
+    /// back face).
+    pub params: BswdfParams,
+    /// Weight of deformation, the feature added to the BSWDF's motion terms (see [`Feedback`]):
+    /// a node's salience is raised by `deformation_weight × ε`, with `ε` the mean relative
+    /// length change `|ℓ/ℓ₀ − 1|` of its links (≥ 0; 0 turns it off). Default 20: a 5%
+    /// stretch weighs as much as fully salient motion. Linear on purpose, unlike the motion
+    /// response: the error a coarse node makes grows with the strain it cannot represent, so
+    /// the ranking must keep growing where a viewer's impression would saturate.
+    pub deformation_weight: f32,
+    /// Salience memory in seconds (≥ 0; 0 turns it off): a node's salience is the larger of
+    /// its current value and its remembered value decayed by `exp(−t / memory_seconds)`.
+    ///
+    /// Why: a swinging cloth stops at every turning point, where its velocities (and with them
+    /// instantaneous motion salience) pass through zero, only to move again a fraction of a
+    /// second later. Attention drawn by motion persists for a few hundred milliseconds
+    /// (inhibition of return and visual persistence act on that scale), so a region that just
+    /// moved is still being looked at; coarsening it at the turning point and refining it again
+    /// on the way back would be both wasted work and visible popping. Default 0.5 s.
+    pub memory_seconds: f32,
+    /// Split the salience evaluation over the rayon pool when there are enough nodes.
+    pub parallel: bool,
+    /// Controller settings for [`ClothBudget::TargetStepMs`].
+    pub controller: ControllerSettings,
+}
+
+impl Default for FeedbackSettings {
+    fn default() -> Self {
+        FeedbackSettings {
+            interval: 5,
+            budget: ClothBudget::Compression(0.3),
+            hysteresis: 6.0,
+            max_ops: 64,
+            priority: PriorityModel::default(),
+            params: BswdfParams {
+                sides: Sidedness::TwoSided,
+                ..BswdfParams::default()
+            },
+            deformation_weight: 20.0,
+            memory_seconds: 0.5,
+            parallel: false,
+            controller: ControllerSettings::default(),
+        }
+    }
+}
+
+impl FeedbackSettings {
+    /// The evaluator settings these feedback settings imply.
+    pub(crate) fn evaluator_settings(&self) -> EvaluatorSettings {
+        EvaluatorSettings {
+            hysteresis: self.hysteresis,
+            max_ops: self.max_ops,
+            merge_key: match self.priority {
+                PriorityModel::Salience => MergeKey::MaxOfChildren,
+                PriorityModel::ScreenError => MergeKey::Parent,
+            },
+        }
+    }
+
+    /// Checks every field; the error names the bad one.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        let bad = |field, reason| Err(ClothError::Feedback { field, reason });
+        if self.interval == 0 {
+            return bad("interval", "must be >= 1");
+        }
+        if !(self.hysteresis.is_finite() && self.hysteresis >= 0.0) {
+            return bad("hysteresis", "must be finite and >= 0");
+        }
+        if !(self.deformation_weight.is_finite() && self.deformation_weight >= 0.0) {
+            return bad("deformation_weight", "must be finite and >= 0");
+        }
+        if !(self.memory_seconds.is_finite() && self.memory_seconds >= 0.0) {
+            return bad("memory_seconds", "must be finite and >= 0");
+        }
+        if self.max_ops == 0 {
+            return bad("max_ops", "must be >= 1");
+        }
+        match self.budget {
+            ClothBudget::Nodes(0) => return bad("budget", "node budget must be >= 1"),
+            ClothBudget::Compression(f) if !(f.is_finite() && f > 0.0 && f <= 1.0) => {
+                return bad("budget", "compression must be in (0, 1]");
+            }
+            ClothBudget::TargetStepMs(ms) if !(ms.is_finite() && ms > 0.0) => {
+                return bad("budget", "target step time must be finite and > 0 ms");
+            }
+            _ => {}
+        }
+        self.params.validate()?;
+        let c = self.controller;
+        let unit = |x: f32| x > 0.0 && x <= 1.0;
+        let ok = unit(c.smoothing)
+            && unit(c.gain)
+            && c.max_change > 0.0
+            && c.max_change.is_finite()
+            && c.deadband >= 0.0
+            && c.deadband < 1.0;
+        if !ok {
+            return bad(
+                "controller",
+                "smoothing and gain in (0, 1], max_change > 0, deadband in [0, 1)",
+            );
+        }
+        Ok(())
+    }
+}
+
+/// The node count a compression (fraction of the full count) allows: rounded, at least 1 (what
+/// [`ClothBudget::Compression`] means).
+pub fn compression_nodes(compression: f32, full_nodes: usize) -> usize {
+    ((compression as f64 * full_nodes as f64).round() as usize).max(1)
+}
