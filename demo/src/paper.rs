@@ -1,5 +1,6 @@
-//! The published figures we print beside ours, copied from the sources in
-//! `/work/shared/seeds/` (the simulation paper's section 6 and the thesis' chapter 13), and one
+//! The published figures we print beside ours, copied from the two source documents,
+//! `simulation-lod-treecut-softbody-bswdf.txt` (section 6) and
+//! `animation-lod-bone-priority-thesis.txt` (chapter 13), and one
 //! documented peer measurement of Bullet. Nothing here is measured by the demo.
 
 use serde::Serialize;

@@ -1,6 +1,10 @@
 //! The plain solver: particles in structure-of-arrays form, coloured links, group links,
 //! and the fixed-step XPBD integrator.
 //!
+//! Based on: Macklin, Müller, Chentanez, "XPBD: Position-Based Simulation of Compliant
+//! Constrained Dynamics", 2016 (the integrator: predict, project constraints, update
+//! velocities from positions); the paper's physics stage is the simulation-LOD paper (`simulation-lod-treecut-softbody-bswdf.txt`), section 3.1.
+//!
 //! Particle state is `positions[i] = (x, y, z, inverse mass)` and `velocities[i] = (vx, vy, vz, 0)`:
 //! keeping the inverse mass in the fourth lane means a link reads everything it needs about
 //! a particle from one 16-byte load. Pinned particles have inverse mass 0; their true mass is

@@ -1,5 +1,10 @@
 //! The XPBD distance-link kernel: one sweep over a colour batch of links.
 //!
+//! Based on: M. Macklin, M. Müller, N. Chentanez, "XPBD: Position-Based Simulation of
+//! Compliant Constrained Dynamics", Motion in Games 2016, section 3 (the compliant
+//! constraint update with its Lagrange multiplier); substeps as in Macklin et al., "Small Steps
+//! in Physics Simulation", SCA 2019.
+//!
 //! Per link (`w` = blend weight, `α̃ = α/h²`, `W = w_a + w_b` inverse masses):
 //!
 //! ```text

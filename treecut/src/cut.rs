@@ -1,4 +1,7 @@
 //! The cut: which nodes are active, with O(1) membership and O(fanout) refine and coarse.
+//!
+//! Based on: the simulation-LOD paper (`simulation-lod-treecut-softbody-bswdf.txt`), section 3.2 (the TreeCut: a cut through a
+//! multi-resolution hierarchy that refine and coarse move).
 
 use crate::{CutError, Hierarchy, InvariantError, NodeId};
 

@@ -1,4 +1,7 @@
 //! [`AdaptiveCloth`]: a TreeCut soft body driven by the feedback loop.
+//!
+//! Based on: the simulation-LOD paper (`simulation-lod-treecut-softbody-bswdf.txt`), section 5 (the complete system: simulate, measure
+//! salience in the feedback stage, evaluate, refine/coarse).
 
 use std::sync::Arc;
 use std::time::Instant;

@@ -1,5 +1,8 @@
 //! TreeCut-SoftBody: a soft body whose particles are the active nodes of a `treecut::Cut`.
 //!
+//! Based on: the simulation-LOD paper (`simulation-lod-treecut-softbody-bswdf.txt`), sections 3.2–3.4 (TreeCut-SoftBody: the cut's nodes
+//! as particles, operations split into a begin and an end with blended links).
+//!
 //! * Every particle stands for one hierarchy node ([`TreeCutSoftBody::particle_nodes`]); a
 //!   per-node table maps back. Particle storage is dense (swap-removal), so particle indices
 //!   change when transitions end; node ids do not.

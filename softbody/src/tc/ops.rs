@@ -1,5 +1,8 @@
 //! The two halves of refine and coarse.
 //!
+//! Based on: the simulation-LOD paper (`simulation-lod-treecut-softbody-bswdf.txt`), section 3.3 (beginning an operation) and 3.4 (ending
+//! it).
+//!
 //! **begin_refine(P)** — P's particle is replaced by one particle per child: masses from the
 //! hierarchy (they sum to P's), positions `x_P + R (rest(child) − rest(P))` with `R` the
 //! shape-matching rotation of P's current neighbourhood onto its rest neighbourhood (so a

@@ -3,6 +3,8 @@
 //! model, parameters), the measurement here ([`Feedback::measure`]: BSWDF salience of every
 //! particle, then priorities per cut node), [`deformation`] (the strain feature), [`memory`]
 //! (salience memory) and [`radii`] (node sizes).
+//!
+//! Based on: the simulation-LOD paper (`simulation-lod-treecut-softbody-bswdf.txt`), sections 4–5 (the feedback stage).
 
 mod deformation;
 mod memory;
