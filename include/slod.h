@@ -1216,16 +1216,18 @@ SlodResult slod_cloth_node_info(const struct SlodWorld *world,
  * Reconstructs every finest-level vertex from the simulated nodes and copies the positions
  * (float[3] each, in vertex index order) to `out`: what a renderer draws.
  *
- * Takes a mutable world because reconstruction warm-starts from a per-node rotation cache.
+ * A query: reading the vertices never changes what is simulated (two identical cloths stay
+ * bit-identical whether or not either is read), and pinned vertices are exactly at their
+ * anchors at every cut.
  * Buffer: copy-out, counted in vertices (`slod_cloth_vertex_count`; fixed for the cloth's life).
- * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_BUFFER_TOO_SMALL`
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_BUFFER_TOO_SMALL`
  * (checked before any work).
  *
  * # Safety
  * `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
  * valid for a write.
  */
-SlodResult slod_cloth_vertex_positions(struct SlodWorld *world,
+SlodResult slod_cloth_vertex_positions(const struct SlodWorld *world,
                                        struct SlodClothId cloth,
                                        float (*out)[3],
                                        size_t cap,

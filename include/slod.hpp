@@ -214,8 +214,9 @@ public:
             },
             "slod_cloth_active_nodes");
     }
-    /// Reconstructed finest-level vertex positions (what a renderer draws).
-    std::vector<Vec3> vertex_positions() {
+    /// Reconstructed finest-level vertex positions (what a renderer draws). A query: reading
+    /// never changes the simulation.
+    std::vector<Vec3> vertex_positions() const {
         std::vector<Vec3> v(vertex_count());
         size_t n = 0;
         check(slod_cloth_vertex_positions(world_, id_, reinterpret_cast<float(*)[3]>(v.data()),

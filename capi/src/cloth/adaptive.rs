@@ -334,7 +334,7 @@ impl AdaptiveCloth {
 
     /// Positions of every finest-level vertex reconstructed from the current nodes (for
     /// rendering and for measuring error); `out` holds one entry per vertex.
-    pub fn reconstruct(&mut self, out: &mut [Vec3]) -> Result<(), ClothError> {
+    pub fn reconstruct(&self, out: &mut [Vec3]) -> Result<(), ClothError> {
         Ok(self.body.reconstruct(out)?)
     }
 

@@ -335,13 +335,7 @@ pub(crate) fn cloth_error(e: ClothError) -> FfiError {
 }
 
 fn insert(world: &mut SlodWorld, cloth: AdaptiveCloth) -> SlodClothId {
-    world
-        .cloths
-        .insert(ClothEntry {
-            cloth,
-            vertices: Vec::new(),
-        })
-        .into()
+    world.cloths.insert(ClothEntry { cloth }).into()
 }
 
 /// Creates a grid cloth (a quadtree hierarchy over `columns × rows` vertices) and writes its id.

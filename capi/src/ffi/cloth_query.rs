@@ -8,8 +8,8 @@ use softbody::DrawLink;
 use treecut::NodeId;
 
 use super::arena::RawId;
-use super::boundary::{arg, arg_mut, boundary, copy_out_map, write_out};
-use super::cloth::{SLOD_NO_NODE, cloth_error, cloth_mut};
+use super::boundary::{arg, boundary, copy_out_map, write_out};
+use super::cloth::{SLOD_NO_NODE, cloth_error};
 use super::ids::SlodClothId;
 use super::result::{FfiError, SlodResult};
 use super::world::{ClothEntry, SlodWorld};
@@ -334,9 +334,11 @@ pub unsafe extern "C" fn slod_cloth_node_info(
 /// Reconstructs every finest-level vertex from the simulated nodes and copies the positions
 /// (float[3] each, in vertex index order) to `out`: what a renderer draws.
 ///
-/// Takes a mutable world because reconstruction warm-starts from a per-node rotation cache.
+/// A query: reading the vertices never changes what is simulated (two identical cloths stay
+/// bit-identical whether or not either is read), and pinned vertices are exactly at their
+/// anchors at every cut.
 /// Buffer: copy-out, counted in vertices (`slod_cloth_vertex_count`; fixed for the cloth's life).
-/// Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_BUFFER_TOO_SMALL`
+/// Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_BUFFER_TOO_SMALL`
 /// (checked before any work).
 ///
 /// # Safety
@@ -344,16 +346,16 @@ pub unsafe extern "C" fn slod_cloth_node_info(
 /// valid for a write.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn slod_cloth_vertex_positions(
-    world: *mut SlodWorld,
+    world: *const SlodWorld,
     cloth: SlodClothId,
     out: *mut [f32; 3],
     cap: usize,
     out_len: *mut usize,
 ) -> SlodResult {
     boundary(|| {
-        // SAFETY: caller contract: NULL or a live world used by this thread only.
-        let world = unsafe { arg_mut(world, "world") }?;
-        let entry = cloth_mut(world, cloth)?;
+        // SAFETY: caller contract: NULL or a live world.
+        let world = unsafe { arg(world, "world") }?;
+        let entry = cloth_ref(world, cloth)?;
         let n = entry.cloth.hierarchy().vertex_count();
         if out_len.is_null() {
             return Err(FfiError::Null("out_len"));
@@ -370,18 +372,21 @@ pub unsafe extern "C" fn slod_cloth_vertex_positions(
         if out.is_null() {
             return Err(FfiError::Null("out"));
         }
-        entry.vertices.resize(n, glam::Vec3::ZERO);
-        entry
-            .cloth
-            .reconstruct(&mut entry.vertices)
-            .map_err(cloth_error)?;
-        let xyz = |v: &glam::Vec3| v.to_array();
-        // SAFETY: caller contract: `out` valid for `cap >= n` writes, `out_len` for one.
-        unsafe { copy_out_map(&entry.vertices, xyz, out, cap, out_len, "out") }
+        VERTICES.with_borrow_mut(|vertices| {
+            vertices.clear();
+            vertices.resize(n, glam::Vec3::ZERO);
+            entry.cloth.reconstruct(vertices).map_err(cloth_error)?;
+            let xyz = |v: &glam::Vec3| v.to_array();
+            // SAFETY: caller contract: `out` valid for `cap >= n` writes, `out_len` for one.
+            unsafe { copy_out_map(vertices, xyz, out, cap, out_len, "out") }
+        })
     })
 }
 
 thread_local! {
+    /// Vertices of the last `slod_cloth_vertex_positions` call on this thread (reused, like
+    /// [`LINKS`], so the query allocates nothing once warm and takes a `const SlodWorld*`).
+    static VERTICES: RefCell<Vec<glam::Vec3>> = const { RefCell::new(Vec::new()) };
     /// Links of the last `slod_cloth_links` call on this thread (reused: no allocation per call
     /// once warm, and no shared state, so the query can take a `const SlodWorld*`).
     static LINKS: RefCell<Vec<DrawLink>> = const { RefCell::new(Vec::new()) };

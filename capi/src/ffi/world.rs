@@ -60,11 +60,11 @@ pub extern "C" fn slod_default_world_desc() -> SlodWorldDesc {
     }
 }
 
-/// A cloth and the scratch buffers its queries reuse (no allocation per call once warm).
+/// A cloth as the world holds it (queries keep their scratch buffers per thread, so they can
+/// read a `const SlodWorld*`).
 #[derive(Debug)]
 pub(crate) struct ClothEntry {
     pub(crate) cloth: AdaptiveCloth,
-    pub(crate) vertices: Vec<glam::Vec3>,
 }
 
 /// Everything a host created: cloths, rigs, crowds and characters. Opaque to C.

@@ -22,6 +22,8 @@
 
 mod ops;
 mod pins;
+#[cfg(test)]
+mod query_tests;
 mod reconstruct;
 #[cfg(test)]
 mod tests;

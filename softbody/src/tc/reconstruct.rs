@@ -73,8 +73,9 @@ pub fn reconstruction_error(
 }
 
 impl TreeCutSoftBody {
-    /// Shape-matching rotation of every particle (updates the per-node warm-start cache).
-    fn particle_rotations(&mut self, out: &mut Vec<Quat>) {
+    /// Shape-matching rotation of every particle, warm-started from the simulation's per-node
+    /// rotations. Reads only: what the host reconstructs never changes what is simulated.
+    fn particle_rotations(&self, out: &mut Vec<Quat>) {
         let h = &*self.hierarchy;
         let pos = self.body.positions();
         out.clear();
@@ -90,23 +91,22 @@ impl TreeCutSoftBody {
                     h.rest_position(q_node) - rest_p,
                 );
             }
-            let r = shape::rotation_of(&cov, self.rotation[node.index()]);
-            self.rotation[node.index()] = r;
-            out.push(r);
+            out.push(shape::rotation_of(&cov, self.rotation[node.index()]));
         }
     }
 
     /// Writes a position for every finest-level vertex into `out` (length = vertex count),
-    /// using [`crate::TreeCutSettings::reconstruction`]. Takes `&mut self` only to update
-    /// the per-node rotation cache that warm-starts shape matching.
-    pub fn reconstruct(&mut self, out: &mut [Vec3]) -> Result<(), TreeCutError> {
+    /// using [`crate::TreeCutSettings::reconstruction`]. A query: it changes nothing, so two
+    /// identical bodies stay bit-identical whether or not, and however often, either is read.
+    /// Pinned vertices are written exactly at their anchors, at every cut.
+    pub fn reconstruct(&self, out: &mut [Vec3]) -> Result<(), TreeCutError> {
         let mode = self.settings.reconstruction;
         self.reconstruct_with(mode, out)
     }
 
     /// [`TreeCutSoftBody::reconstruct`] with an explicit mode.
     pub fn reconstruct_with(
-        &mut self,
+        &self,
         mode: ReconstructionMode,
         out: &mut [Vec3],
     ) -> Result<(), TreeCutError> {
@@ -165,13 +165,22 @@ impl TreeCutSoftBody {
                 }
             }
         }
+        // A viewer sees a pin move: a pinned vertex is where it is pinned, whatever rotation
+        // shape matching estimated for the coarse node that covers it.
+        if self.pins.any(h) {
+            for (v, o) in out.iter_mut().enumerate() {
+                if let Some(anchor) = self.vertex_anchor(v as u32) {
+                    *o = anchor;
+                }
+            }
+        }
         Ok(())
     }
 
     /// Reconstructs into `scratch` and compares with `reference` (one position per vertex),
     /// relative to the hierarchy's rest diagonal.
     pub fn error_against(
-        &mut self,
+        &self,
         reference: &[Vec3],
         scratch: &mut Vec<Vec3>,
     ) -> Result<ReconstructionError, TreeCutError> {

@@ -5,7 +5,7 @@ use super::*;
 use crate::{GridCloth, ReconstructionMode};
 use treecut::GridSpec;
 
-fn spec(n: u32) -> GridSpec {
+pub(super) fn spec(n: u32) -> GridSpec {
     GridSpec {
         cols: n,
         rows: n,
@@ -35,13 +35,13 @@ fn settings(gravity: bool) -> TreeCutSettings {
     }
 }
 
-fn body(n: u32, level: u32, gravity: bool) -> TreeCutSoftBody {
+pub(super) fn body(n: u32, level: u32, gravity: bool) -> TreeCutSoftBody {
     let h = Hierarchy::grid(&spec(n)).unwrap();
     let cut = Cut::uniform(&h, level);
     TreeCutSoftBody::new(h, cut, settings(gravity)).unwrap()
 }
 
-fn pin_corners(tc: &mut TreeCutSoftBody, n: u32) {
+pub(super) fn pin_corners(tc: &mut TreeCutSoftBody, n: u32) {
     let s = spec(n);
     for v in [0, n - 1, n * (n - 1), n * n - 1] {
         let (i, j) = (v % n, v / n);
@@ -51,9 +51,9 @@ fn pin_corners(tc: &mut TreeCutSoftBody, n: u32) {
 
 /// The project's seeded generator (PCG-64 MCG, as in `slod-experiments`), with the one draw
 /// these tests use.
-struct Rng(rand_pcg::Pcg64Mcg);
+pub(super) struct Rng(rand_pcg::Pcg64Mcg);
 impl Rng {
-    fn new(seed: u64) -> Rng {
+    pub(super) fn new(seed: u64) -> Rng {
         Rng(rand_core::SeedableRng::seed_from_u64(seed))
     }
     fn below(&mut self, n: usize) -> usize {
@@ -62,7 +62,7 @@ impl Rng {
 }
 
 /// Tries one random operation; a refused one must change nothing.
-fn random_op(tc: &mut TreeCutSoftBody, rng: &mut Rng) -> bool {
+pub(super) fn random_op(tc: &mut TreeCutSoftBody, rng: &mut Rng) -> bool {
     let active = tc.cut().active();
     let node = active[rng.below(active.len())];
     let before = (
@@ -95,7 +95,7 @@ fn random_op(tc: &mut TreeCutSoftBody, rng: &mut Rng) -> bool {
     result.is_ok()
 }
 
-fn bits(p: &[Vec4]) -> Vec<[u32; 4]> {
+pub(super) fn bits(p: &[Vec4]) -> Vec<[u32; 4]> {
     p.iter().map(|v| v.to_array().map(f32::to_bits)).collect()
 }
 
