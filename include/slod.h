@@ -7,8 +7,10 @@
  * trailing output pointers only on success; slod_last_error() gives the calling thread's detail.
  * Ids are small values {index1, generation} (zero = null) validated on every call. A world is used
  * from one thread at a time; functions taking `const SlodWorld*` may run concurrently; distinct
- * worlds are independent. Buffers are caller-owned: copy-out functions take (out, cap, out_len)
- * and return SLOD_RESULT_BUFFER_TOO_SMALL with the needed count in *out_len (cap 0 sizes it).
+ * worlds are independent. Buffers are caller-owned: copy-out functions take (out, cap, out_len),
+ * one rule for all: out NULL with cap 0 sizes the buffer (*out_len = the count, SLOD_RESULT_OK);
+ * otherwise out and *out_len are written only on success (cap too small:
+ * SLOD_RESULT_BUFFER_TOO_SMALL; out NULL with cap > 0: SLOD_RESULT_NULL_ARGUMENT).
  */
 
 #ifndef SLOD_H
@@ -1149,9 +1151,9 @@ SlodResult slod_cloth_vertex_count(const struct SlodWorld *world,
  * Copies the position of every simulated node (float[3] each) to `out`.
  *
  * Entry i is simulated node i; `slod_cloth_node_ids` gives its hierarchy node in the same order.
- * Buffer: copy-out; `cap` and `*out_len` count nodes (call with `cap` 0 to size it; the count
- * changes when the cut does). Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`,
- * `SLOD_RESULT_BUFFER_TOO_SMALL` (with the needed count in `*out_len`).
+ * Buffer: copy-out (the header's rule); `cap` and `*out_len` count nodes (the count changes
+ * when the cut does). Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`,
+ * `SLOD_RESULT_BUFFER_TOO_SMALL`, `SLOD_RESULT_NULL_ARGUMENT`.
  *
  * # Safety
  * `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
@@ -1308,8 +1310,9 @@ SlodResult slod_rig_info(const struct SlodWorld *world,
 /**
  * Copies the name of clip `clip` (UTF-8, NUL-terminated) to `buf`.
  *
- * Buffer: copy-out counted in bytes including the NUL: `*out_len` receives the name's length
- * plus one; with `cap` smaller nothing is written and `SLOD_RESULT_BUFFER_TOO_SMALL` returned.
+ * Buffer: copy-out (the header's rule) counted in bytes including the NUL: on success
+ * `*out_len` is the name's length plus one; with `cap` smaller nothing is written and
+ * `SLOD_RESULT_BUFFER_TOO_SMALL` is returned.
  * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
  * for a bad clip index.
  *

@@ -69,9 +69,8 @@ namespace detail {
 /// Copy-out with sizing: `f(out, cap, &len)` is called with cap 0, then with the needed count.
 template <class T, class C, class F> std::vector<T> fetch(F f, const char *call) {
     size_t n = 0;
-    SlodResult r = f(nullptr, 0, &n);
-    if (r == SLOD_RESULT_OK) return {};
-    if (r != SLOD_RESULT_BUFFER_TOO_SMALL) check(r, call);
+    check(f(nullptr, 0, &n), call); // sizing succeeds and writes the count
+    if (n == 0) return {};
     std::vector<T> v(n);
     check(f(reinterpret_cast<C *>(v.data()), n, &n), call);
     v.resize(n);

@@ -230,12 +230,12 @@ fn fetch<T: Copy + Default>(
     mut f: impl FnMut(*mut T, usize, *mut usize) -> SlodResult,
 ) -> Vec<T> {
     let mut n = usize::MAX;
-    let r = f(std::ptr::null_mut(), 0, &mut n);
-    if r == SlodResult::Ok {
-        assert_eq!(n, 0, "{ctx}: OK with cap 0 means empty");
+    // Sizing (NULL, cap 0) succeeds and writes the count.
+    expect_ok(f(std::ptr::null_mut(), 0, &mut n), ctx);
+    assert_ne!(n, usize::MAX, "{ctx}: sizing wrote the count");
+    if n == 0 {
         return Vec::new();
     }
-    assert_eq!(r, SlodResult::BufferTooSmall, "{ctx}: {}", last_error());
     let mut v = vec![T::default(); n];
     let mut got = 0usize;
     expect_ok(f(v.as_mut_ptr(), v.len(), &mut got), ctx);
@@ -851,24 +851,33 @@ fn random_call(rng: &mut Rng, m: &mut Model, other: &Model, assets: &Assets, ste
                 expect_err(call(buf.as_mut_ptr(), 0, &mut len), "cloth", ctx);
                 return;
             }
-            // Sizing, then one element short (within `buf`): too small, the count reported.
-            let r = call(std::ptr::null_mut(), 0, &mut len);
-            expect_err(r, "out", ctx);
-            assert_eq!(r, SlodResult::BufferTooSmall);
+            // Sizing succeeds with the count; one element short (within `buf`) is too small
+            // and writes nothing (neither the count nor the buffer).
+            expect_ok(call(std::ptr::null_mut(), 0, &mut len), ctx);
             let needed = len;
             assert!(needed >= 1, "{ctx}: needed count reported");
             let short = (needed - 1).min(buf.len());
-            len = 0;
+            len = usize::MAX;
+            let sentinel = [f32::from_bits(0x7fc0_dead); 3];
+            buf.fill(sentinel);
             let r = call(buf.as_mut_ptr(), short, &mut len);
             expect_err(r, "out", ctx);
-            assert_eq!(len, needed);
+            assert_eq!(r, SlodResult::BufferTooSmall);
+            assert_eq!(len, usize::MAX, "{ctx}: count untouched on failure");
+            assert!(
+                buf.iter()
+                    .all(|v| v.map(f32::to_bits) == sentinel.map(f32::to_bits)),
+                "{ctx}: buffer untouched on failure"
+            );
             expect_err(
                 call(buf.as_mut_ptr(), 4, std::ptr::null_mut()),
                 "out_len",
                 ctx,
             );
             // NULL with a large capacity: refused, nothing written.
+            len = usize::MAX;
             expect_err(call(std::ptr::null_mut(), usize::MAX, &mut len), "out", ctx);
+            assert_eq!(len, usize::MAX, "{ctx}: count untouched on failure");
             let mut info = SlodNodeInfo::default();
             // SAFETY: live world, valid out pointer.
             let r = unsafe { slod_cloth_node_info(w, id, u32::MAX, &mut info) };

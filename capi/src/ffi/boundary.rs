@@ -73,9 +73,12 @@ pub(crate) unsafe fn slice<'a, T>(
     Ok(unsafe { std::slice::from_raw_parts(p, len) })
 }
 
-/// Copies `data` out to a caller buffer under the copy-out convention: `*out_len` receives the
-/// element count; if `cap` is too small nothing is copied and `BUFFER_TOO_SMALL` is returned
-/// with the needed count in `*out_len` (call with `cap` 0 to size the buffer).
+/// Copies `data` out to a caller buffer under the one copy-out rule of the header:
+/// * `out` NULL with `cap` 0 sizes the buffer: `*out_len` receives the element count, and the
+///   call succeeds;
+/// * otherwise `*out_len` and `out` are written only on success: with `cap` too small the call
+///   returns `BUFFER_TOO_SMALL` (the message names the count needed), with `out` NULL and a
+///   non-zero `cap` `NULL_ARGUMENT`, and nothing is written in either case.
 ///
 /// # Safety
 /// `out` must be valid for `cap` writes of `T` (or NULL with `cap` 0); `out_len` NULL or valid.
@@ -102,28 +105,53 @@ pub(crate) unsafe fn copy_out_map<S, T>(
     out_len: *mut usize,
     name: &'static str,
 ) -> Result<(), FfiError> {
-    if out_len.is_null() {
-        return Err(FfiError::Null("out_len"));
-    }
-    // SAFETY: checked non-NULL above; validity per caller contract.
-    unsafe { *out_len = src.len() };
-    if src.len() > cap {
-        return Err(FfiError::BufferTooSmall {
-            arg: name,
-            cap,
-            needed: src.len(),
-        });
-    }
-    if src.is_empty() {
-        return Ok(());
-    }
+    // SAFETY: forwarded from the caller's contract (`out_len` NULL or valid).
+    unsafe { check_copy_out(src.len(), out, cap, out_len, name) }?;
     if out.is_null() {
-        return Err(FfiError::Null(name));
+        // Sizing: `check_copy_out` wrote the count.
+        return Ok(());
     }
     for (i, s) in src.iter().enumerate() {
         // SAFETY: `out` is non-NULL and valid for `cap >= src.len()` writes per the caller
         // contract, and `i < src.len()`.
         unsafe { out.add(i).write(f(s)) };
+    }
+    // SAFETY: `out_len` checked non-NULL by `check_copy_out`; validity per caller contract.
+    unsafe { *out_len = src.len() };
+    Ok(())
+}
+
+/// The copy-out rule's checks, for a function that must check before producing `needed`
+/// elements (expensive work is done only for a call that will succeed). Returns `Ok` for a
+/// sizing call (`out` NULL, `cap` 0; `*out_len = needed` written) and for a call whose buffer
+/// fits (nothing written yet); an error otherwise, with nothing written.
+///
+/// # Safety
+/// `out_len` NULL or valid for a write.
+pub(crate) unsafe fn check_copy_out<T>(
+    needed: usize,
+    out: *mut T,
+    cap: usize,
+    out_len: *mut usize,
+    name: &'static str,
+) -> Result<(), FfiError> {
+    if out_len.is_null() {
+        return Err(FfiError::Null("out_len"));
+    }
+    if out.is_null() {
+        if cap != 0 {
+            return Err(FfiError::Null(name));
+        }
+        // SAFETY: checked non-NULL above; validity per caller contract.
+        unsafe { *out_len = needed };
+        return Ok(());
+    }
+    if needed > cap {
+        return Err(FfiError::BufferTooSmall {
+            arg: name,
+            cap,
+            needed,
+        });
     }
     Ok(())
 }

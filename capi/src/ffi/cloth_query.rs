@@ -8,7 +8,7 @@ use softbody::DrawLink;
 use treecut::NodeId;
 
 use super::arena::RawId;
-use super::boundary::{arg, boundary, copy_out_map, write_out};
+use super::boundary::{arg, boundary, check_copy_out, copy_out_map, write_out};
 use super::cloth::{SLOD_NO_NODE, cloth_error};
 use super::ids::SlodClothId;
 use super::result::{FfiError, SlodResult};
@@ -211,9 +211,9 @@ pub unsafe extern "C" fn slod_cloth_vertex_count(
 /// Copies the position of every simulated node (float[3] each) to `out`.
 ///
 /// Entry i is simulated node i; `slod_cloth_node_ids` gives its hierarchy node in the same order.
-/// Buffer: copy-out; `cap` and `*out_len` count nodes (call with `cap` 0 to size it; the count
-/// changes when the cut does). Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`,
-/// `SLOD_RESULT_BUFFER_TOO_SMALL` (with the needed count in `*out_len`).
+/// Buffer: copy-out (the header's rule); `cap` and `*out_len` count nodes (the count changes
+/// when the cut does). Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`,
+/// `SLOD_RESULT_BUFFER_TOO_SMALL`, `SLOD_RESULT_NULL_ARGUMENT`.
 ///
 /// # Safety
 /// `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
@@ -357,20 +357,10 @@ pub unsafe extern "C" fn slod_cloth_vertex_positions(
         let world = unsafe { arg(world, "world") }?;
         let entry = cloth_ref(world, cloth)?;
         let n = entry.cloth.hierarchy().vertex_count();
-        if out_len.is_null() {
-            return Err(FfiError::Null("out_len"));
-        }
-        if cap < n {
-            // SAFETY: checked non-NULL; the copy-out convention reports the needed count.
-            unsafe { *out_len = n };
-            return Err(FfiError::BufferTooSmall {
-                arg: "out",
-                cap,
-                needed: n,
-            });
-        }
+        // SAFETY: caller contract: `out_len` NULL or valid for a write.
+        unsafe { check_copy_out(n, out, cap, out_len, "out") }?;
         if out.is_null() {
-            return Err(FfiError::Null("out"));
+            return Ok(()); // sized
         }
         VERTICES.with_borrow_mut(|vertices| {
             vertices.clear();

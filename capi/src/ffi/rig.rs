@@ -218,8 +218,9 @@ pub(crate) fn check_skin(rig: &Rig, skin: u32) -> Result<SkinId, FfiError> {
 
 /// Copies the name of clip `clip` (UTF-8, NUL-terminated) to `buf`.
 ///
-/// Buffer: copy-out counted in bytes including the NUL: `*out_len` receives the name's length
-/// plus one; with `cap` smaller nothing is written and `SLOD_RESULT_BUFFER_TOO_SMALL` returned.
+/// Buffer: copy-out (the header's rule) counted in bytes including the NUL: on success
+/// `*out_len` is the name's length plus one; with `cap` smaller nothing is written and
+/// `SLOD_RESULT_BUFFER_TOO_SMALL` is returned.
 /// Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
 /// for a bad clip index.
 ///
