@@ -382,7 +382,7 @@ typedef struct SlodSolverDesc {
    */
   uint32_t iterations;
   /**
-   * Gravity acceleration in m/s² (each component finite, |g| <= 1e4).
+   * Gravity acceleration in m/s² (finite, length |g| <= 1e4).
    */
   float gravity[3];
   /**
@@ -421,7 +421,8 @@ typedef struct SlodClothDesc {
    */
   uint32_t rows;
   /**
-   * Distance between neighbouring vertices, in (0, 1e4].
+   * Distance between neighbouring vertices, in [1e-6, 1e4]; the whole grid (centre ± half
+   * its extent) must lie within ±`SLOD_MAX_COORDINATE`.
    */
   float spacing;
   /**
@@ -1259,7 +1260,9 @@ SlodResult slod_cloth_links(const struct SlodWorld *world,
  * files a .gltf references are looked up next to it. Ownership: the world owns the rig; the
  * path is read during the call only. Threads: mutates the world. Errors: `SLOD_RESULT_IO_ERROR`
  * if a file cannot be read, `SLOD_RESULT_PARSE_ERROR` with the importer's message for malformed
- * or unsupported glTF (no skin, bad accessors, ...). Nothing is created on error.
+ * or unsupported glTF (no skin, bad accessors, ...), `SLOD_RESULT_INVALID_ARGUMENT` for an empty
+ * path, `SLOD_RESULT_NULL_ARGUMENT` for a NULL `world`, `path` or `out_rig`. Nothing is created
+ * on error.
  *
  * # Safety
  * `world` NULL or a live world; `path` NULL or a NUL-terminated string; `out_rig` NULL or valid
@@ -1423,12 +1426,13 @@ SlodResult slod_crowd_set_lod(struct SlodWorld *world,
 
 /**
  * Advances every character of a crowd by `dt` seconds and updates their poses under the
- * crowd's LOD mode, seen through the world's view; writes what the frame did to `*out_stats`.
+ * crowd's LOD mode, seen through the world's view; writes what the frame did to `*out_stats`
+ * (optional: NULL skips the statistics).
  *
  * Until the host sets a camera, the world's default view is used (see
  * `slod_world_set_camera`). Threads: mutates the world. Errors:
  * `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_INVALID_ARGUMENT` for `dt` not finite or outside
- * [0, 3600] (nothing advanced).
+ * [0, 3600] (nothing advanced); `SLOD_RESULT_NULL_ARGUMENT` for a NULL `world`.
  *
  * # Safety
  * `world` NULL or a live world; `out_stats` NULL or valid for a write.

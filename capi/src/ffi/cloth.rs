@@ -32,7 +32,7 @@ pub struct SlodSolverDesc {
     pub substeps: u32,
     /// Constraint sweeps per substep, 1..=1024.
     pub iterations: u32,
-    /// Gravity acceleration in m/s² (each component finite, |g| <= 1e4).
+    /// Gravity acceleration in m/s² (finite, length |g| <= 1e4).
     pub gravity: [f32; 3],
     /// Velocity damping rate in 1/s, in [0, 1e4].
     pub damping: f32,
@@ -57,7 +57,8 @@ pub struct SlodClothDesc {
     pub columns: u32,
     /// Vertices along `axis_v` (>= 2).
     pub rows: u32,
-    /// Distance between neighbouring vertices, in (0, 1e4].
+    /// Distance between neighbouring vertices, in [1e-6, 1e4]; the whole grid (centre ± half
+    /// its extent) must lie within ±`SLOD_MAX_COORDINATE`.
     pub spacing: f32,
     /// Mass of the whole cloth in kg, in (0, 1e9], spread evenly over the vertices.
     pub total_mass: f32,
@@ -227,8 +228,12 @@ impl SlodSolverDesc {
         in_range(self.dt, f32::MIN_POSITIVE, 1.0, "desc.solver.dt")?;
         check_u32(self.substeps, 1, 1024, "desc.solver.substeps")?;
         check_u32(self.iterations, 1, 1024, "desc.solver.iterations")?;
-        for g in self.gravity {
-            in_range(g, -1.0e4, 1.0e4, "desc.solver.gravity")?;
+        let g = Vec3::from(self.gravity);
+        if !(g.is_finite() && g.length() <= 1.0e4) {
+            return Err(FfiError::invalid(
+                "desc.solver.gravity",
+                format!("{g} is not finite or longer than 1e4"),
+            ));
         }
         in_range(self.damping, 0.0, 1.0e4, "desc.solver.damping")?;
         in_range(
@@ -266,7 +271,7 @@ impl SlodClothDesc {
                 format!("columns × rows exceeds {SLOD_MAX_CLOTH_VERTICES} vertices"),
             ));
         }
-        in_range(self.spacing, f32::MIN_POSITIVE, 1.0e4, "desc.spacing")?;
+        in_range(self.spacing, 1.0e-6, 1.0e4, "desc.spacing")?;
         in_range(self.total_mass, f32::MIN_POSITIVE, 1.0e9, "desc.total_mass")?;
         let center = position(self.center, "desc.center")?;
         let axis = |a: [f32; 3], name| {
@@ -284,6 +289,23 @@ impl SlodClothDesc {
         }
         let (u, v) = (u * self.spacing, v * self.spacing);
         let half = 0.5 * (self.columns - 1) as f32 * u + 0.5 * (self.rows - 1) as f32 * v;
+        let across = 0.5 * (self.columns - 1) as f32 * u - 0.5 * (self.rows - 1) as f32 * v;
+        for corner in [
+            center + half,
+            center - half,
+            center + across,
+            center - across,
+        ] {
+            if !(corner.is_finite() && corner.abs().max_element() <= SLOD_MAX_COORDINATE) {
+                return Err(FfiError::invalid(
+                    "desc.spacing",
+                    format!(
+                        "the grid reaches {corner}, beyond ±{SLOD_MAX_COORDINATE} (centre ± half \
+                         the extent)"
+                    ),
+                ));
+            }
+        }
         Ok(GridSpec {
             cols: self.columns,
             rows: self.rows,

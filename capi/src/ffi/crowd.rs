@@ -324,12 +324,13 @@ pub unsafe extern "C" fn slod_crowd_set_lod(
 }
 
 /// Advances every character of a crowd by `dt` seconds and updates their poses under the
-/// crowd's LOD mode, seen through the world's view; writes what the frame did to `*out_stats`.
+/// crowd's LOD mode, seen through the world's view; writes what the frame did to `*out_stats`
+/// (optional: NULL skips the statistics).
 ///
 /// Until the host sets a camera, the world's default view is used (see
 /// `slod_world_set_camera`). Threads: mutates the world. Errors:
 /// `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_INVALID_ARGUMENT` for `dt` not finite or outside
-/// [0, 3600] (nothing advanced).
+/// [0, 3600] (nothing advanced); `SLOD_RESULT_NULL_ARGUMENT` for a NULL `world`.
 ///
 /// # Safety
 /// `world` NULL or a live world; `out_stats` NULL or valid for a write.
@@ -346,10 +347,10 @@ pub unsafe extern "C" fn slod_crowd_advance(
         let view = world.view;
         let c = crowd_mut(world, crowd)?;
         in_range(dt, 0.0, 3600.0, "dt")?;
-        if out_stats.is_null() {
-            return Err(FfiError::Null("out_stats"));
-        }
         let s = c.advance(dt, &view).map_err(crowd_error)?;
+        if out_stats.is_null() {
+            return Ok(());
+        }
         let stats = SlodCrowdStats {
             bones_interpolated: s.bones_interpolated,
             bones_held: s.bones_held,

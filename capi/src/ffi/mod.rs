@@ -33,6 +33,9 @@ pub mod character;
 #[cfg(test)]
 mod defaults_tests;
 
+#[cfg(test)]
+mod contract_tests;
+
 pub use character::*;
 pub use cloth::*;
 pub use cloth_query::*;

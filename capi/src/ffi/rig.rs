@@ -57,7 +57,9 @@ fn insert(world: &mut SlodWorld, rig: Rig) -> SlodRigId {
 /// files a .gltf references are looked up next to it. Ownership: the world owns the rig; the
 /// path is read during the call only. Threads: mutates the world. Errors: `SLOD_RESULT_IO_ERROR`
 /// if a file cannot be read, `SLOD_RESULT_PARSE_ERROR` with the importer's message for malformed
-/// or unsupported glTF (no skin, bad accessors, ...). Nothing is created on error.
+/// or unsupported glTF (no skin, bad accessors, ...), `SLOD_RESULT_INVALID_ARGUMENT` for an empty
+/// path, `SLOD_RESULT_NULL_ARGUMENT` for a NULL `world`, `path` or `out_rig`. Nothing is created
+/// on error.
 ///
 /// # Safety
 /// `world` NULL or a live world; `path` NULL or a NUL-terminated string; `out_rig` NULL or valid
