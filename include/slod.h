@@ -22,11 +22,6 @@
 
 
 /**
- * An operation undone within this many steps counts as flicker in [`ClothStats::undone_ops`].
- */
-#define UNDO_WINDOW_STEPS 30
-
-/**
  * Major version of the C ABI; a change breaks existing hosts.
  */
 #define SLOD_VERSION_MAJOR 0
@@ -67,6 +62,12 @@
  * The node index meaning "no node" (the parent of the root).
  */
 #define SLOD_NO_NODE UINT32_MAX
+
+/**
+ * Steps within which an operation undoing an earlier one on the same node counts as undone
+ * (`SlodClothStats::undone_ops`).
+ */
+#define SLOD_UNDO_WINDOW_STEPS 30
 
 /**
  * Largest glTF blob `slod_rig_load_memory` accepts, in bytes (1 GiB).
@@ -542,7 +543,8 @@ typedef struct SlodClothStats {
    */
   uint64_t refused;
   /**
-   * Operations that undid one on the same node begun within 30 steps (flicker).
+   * Operations that undid one on the same node begun within `SLOD_UNDO_WINDOW_STEPS` steps
+   * (flicker).
    */
   uint64_t undone_ops;
   /**

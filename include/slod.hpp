@@ -6,13 +6,15 @@
  *   code (code()) and a message naming the call, the code and slod_last_error()'s detail.
  *   Destructors never throw (they ignore the result of the destroy call).
  * - Ownership: World owns a SlodWorld; Cloth, Rig and Crowd each own one object inside a world
- *   and destroy it in their destructor. They are move-only. They keep the world's raw pointer,
- *   so moving a World is fine, but every Cloth, Rig and Crowd must be destroyed before the
- *   World they were created in (declare the World first). Characters are plain SlodCharacterId
- *   values owned by their Crowd: Crowd::remove destroys one, the Crowd's destructor all.
+ *   and destroy it in their destructor. They are move-only. Each handle shares ownership of its
+ *   world, so the SlodWorld is destroyed when the World and the last handle made in it are all
+ *   gone, in whatever order that happens (moving a World anywhere, or destroying it before its
+ *   handles, is safe). Characters are plain SlodCharacterId values owned by their Crowd:
+ *   Crowd::remove destroys one, the Crowd's destructor all.
  * - A Rig may be destroyed while Crowds made from it live on (they keep the rig's data).
  * - Buffers: the vector-returning queries size the buffer with a first call, then copy.
- * - Threads: as slod.h: one thread at a time per World; const methods only read.
+ * - Threads: as slod.h: one thread at a time per World, and a World with its handles counts as
+ *   one (they share it); const methods only read.
  */
 #ifndef SLOD_HPP
 #define SLOD_HPP
@@ -21,6 +23,7 @@
 
 #include <array>
 #include <cstddef>
+#include <memory>
 #include <cstdint>
 #include <optional>
 #include <stdexcept>
@@ -58,14 +61,20 @@ inline std::string last_error() {
     return s;
 }
 
-/// Throws slod::Error unless `r` is SLOD_RESULT_OK.
+/// Throws slod::Error unless `r` is SLOD_RESULT_OK. The message is the call's name and the
+/// thread's last error detail (which already names the code's meaning), or the code's generic
+/// text when there is no detail.
 inline void check(SlodResult r, const char *call) {
     if (r != SLOD_RESULT_OK) {
-        throw Error(r, std::string(call) + ": " + slod_result_str(r) + ": " + last_error());
+        std::string detail = last_error();
+        throw Error(r, std::string(call) + ": " + (detail.empty() ? slod_result_str(r) : detail));
     }
 }
 
 namespace detail {
+/// Shared ownership of a SlodWorld: the World and every handle made in it hold one.
+using WorldRef = std::shared_ptr<SlodWorld>;
+
 /// Copy-out with sizing: `f(out, cap, &len)` is called with cap 0, then with the needed count.
 template <class T, class C, class F> std::vector<T> fetch(F f, const char *call) {
     size_t n = 0;
@@ -82,37 +91,40 @@ template <class T, class C, class F> std::vector<T> fetch(F f, const char *call)
 class World {
 public:
     explicit World(const SlodWorldDesc &desc = slod_default_world_desc()) {
-        check(slod_world_create(&desc, &world_), "slod_world_create");
-    }
-    World(World &&o) noexcept : world_(std::exchange(o.world_, nullptr)) {}
-    World &operator=(World &&o) noexcept {
-        if (this != &o) {
-            slod_world_destroy(world_);
-            world_ = std::exchange(o.world_, nullptr);
+        SlodWorld *w = nullptr;
+        check(slod_world_create(&desc, &w), "slod_world_create");
+        try {
+            world_ = detail::WorldRef(w, [](SlodWorld *p) { slod_world_destroy(p); });
+        } catch (...) {
+            slod_world_destroy(w);
+            throw;
         }
-        return *this;
     }
+    World(World &&o) noexcept = default;
+    World &operator=(World &&o) noexcept = default;
     World(const World &) = delete;
     World &operator=(const World &) = delete;
-    ~World() { slod_world_destroy(world_); }
+    ~World() = default;
 
-    /// The C handle (owned by this object).
-    SlodWorld *get() const noexcept { return world_; }
+    /// The C handle (NULL after a move; destroyed with the last owner).
+    SlodWorld *get() const noexcept { return world_.get(); }
+    /// Shared ownership of the C handle, as the handles made in this world keep it.
+    const detail::WorldRef &share() const noexcept { return world_; }
 
     void set_camera(const SlodCamera &camera) {
-        check(slod_world_set_camera(world_, &camera), "slod_world_set_camera");
+        check(slod_world_set_camera(world_.get(), &camera), "slod_world_set_camera");
     }
     void set_light(const SlodLight &light) {
-        check(slod_world_set_light(world_, &light), "slod_world_set_light");
+        check(slod_world_set_light(world_.get(), &light), "slod_world_set_light");
     }
     SlodWorldCounts counts() const {
         SlodWorldCounts c;
-        check(slod_world_counts(world_, &c), "slod_world_counts");
+        check(slod_world_counts(world_.get(), &c), "slod_world_counts");
         return c;
     }
 
 private:
-    SlodWorld *world_ = nullptr;
+    detail::WorldRef world_;
 };
 
 /// Owns one cloth of a world.
@@ -122,7 +134,7 @@ public:
     static Cloth grid(World &world, const SlodClothDesc &desc = slod_default_cloth_desc()) {
         SlodClothId id;
         check(slod_cloth_create_grid(world.get(), &desc, &id), "slod_cloth_create_grid");
-        return Cloth(world.get(), id);
+        return Cloth(world.share(), id);
     }
     /// A cloth from the host's mesh (slod_cloth_create_mesh); `masses` empty for area-lumped.
     static Cloth mesh(World &world, const SlodClothDesc &desc, const std::vector<Vec3> &positions,
@@ -134,13 +146,13 @@ public:
                   positions.size(), reinterpret_cast<const uint32_t(*)[3]>(triangles.data()),
                   triangles.size(), masses.empty() ? nullptr : masses.data(), &id),
               "slod_cloth_create_mesh");
-        return Cloth(world.get(), id);
+        return Cloth(world.share(), id);
     }
-    Cloth(Cloth &&o) noexcept : world_(o.world_), id_(std::exchange(o.id_, SlodClothId{0, 0})) {}
+    Cloth(Cloth &&o) noexcept : world_(std::move(o.world_)), id_(std::exchange(o.id_, SlodClothId{0, 0})) {}
     Cloth &operator=(Cloth &&o) noexcept {
         if (this != &o) {
             reset();
-            world_ = o.world_;
+            world_ = std::move(o.world_);
             id_ = std::exchange(o.id_, SlodClothId{0, 0});
         }
         return *this;
@@ -153,30 +165,30 @@ public:
     SlodClothId id() const noexcept { return id_; }
     /// Destroys the cloth now (no effect if already done).
     void reset() noexcept {
-        if (id_.index1 != 0) (void)slod_cloth_destroy(world_, id_);
+        if (id_.index1 != 0) (void)slod_cloth_destroy(world_.get(), id_);
         id_ = SlodClothId{0, 0};
     }
 
-    void step() { check(slod_cloth_step(world_, id_), "slod_cloth_step"); }
-    void refine(uint32_t node) { check(slod_cloth_refine(world_, id_, node), "slod_cloth_refine"); }
-    void coarse(uint32_t node) { check(slod_cloth_coarse(world_, id_, node), "slod_cloth_coarse"); }
+    void step() { check(slod_cloth_step(world_.get(), id_), "slod_cloth_step"); }
+    void refine(uint32_t node) { check(slod_cloth_refine(world_.get(), id_, node), "slod_cloth_refine"); }
+    void coarse(uint32_t node) { check(slod_cloth_coarse(world_.get(), id_, node), "slod_cloth_coarse"); }
     void pin(uint32_t vertex, const Vec3 &at) {
-        check(slod_cloth_pin_vertex(world_, id_, vertex, at[0], at[1], at[2]),
+        check(slod_cloth_pin_vertex(world_.get(), id_, vertex, at[0], at[1], at[2]),
               "slod_cloth_pin_vertex");
     }
     void unpin(uint32_t vertex) {
-        check(slod_cloth_unpin_vertex(world_, id_, vertex), "slod_cloth_unpin_vertex");
+        check(slod_cloth_unpin_vertex(world_.get(), id_, vertex), "slod_cloth_unpin_vertex");
     }
     void set_feedback(const SlodFeedbackDesc &desc) {
-        check(slod_cloth_set_feedback(world_, id_, &desc), "slod_cloth_set_feedback");
+        check(slod_cloth_set_feedback(world_.get(), id_, &desc), "slod_cloth_set_feedback");
     }
     void disable_feedback() {
-        check(slod_cloth_disable_feedback(world_, id_), "slod_cloth_disable_feedback");
+        check(slod_cloth_disable_feedback(world_.get(), id_), "slod_cloth_disable_feedback");
     }
 
     SlodClothStats stats() const {
         SlodClothStats s;
-        check(slod_cloth_stats(world_, id_, &s), "slod_cloth_stats");
+        check(slod_cloth_stats(world_.get(), id_, &s), "slod_cloth_stats");
         return s;
     }
     size_t node_count() const { return count(slod_cloth_node_count, "slod_cloth_node_count"); }
@@ -189,27 +201,27 @@ public:
     }
     SlodNodeInfo node_info(uint32_t node) const {
         SlodNodeInfo info;
-        check(slod_cloth_node_info(world_, id_, node, &info), "slod_cloth_node_info");
+        check(slod_cloth_node_info(world_.get(), id_, node, &info), "slod_cloth_node_info");
         return info;
     }
     std::vector<Vec3> node_positions() const {
         return detail::fetch<Vec3, float[3]>(
             [&](float(*o)[3], size_t c, size_t *n) {
-                return slod_cloth_node_positions(world_, id_, o, c, n);
+                return slod_cloth_node_positions(world_.get(), id_, o, c, n);
             },
             "slod_cloth_node_positions");
     }
     std::vector<uint32_t> node_ids() const {
         return detail::fetch<uint32_t, uint32_t>(
             [&](uint32_t *o, size_t c, size_t *n) {
-                return slod_cloth_node_ids(world_, id_, o, c, n);
+                return slod_cloth_node_ids(world_.get(), id_, o, c, n);
             },
             "slod_cloth_node_ids");
     }
     std::vector<uint32_t> active_nodes() const {
         return detail::fetch<uint32_t, uint32_t>(
             [&](uint32_t *o, size_t c, size_t *n) {
-                return slod_cloth_active_nodes(world_, id_, o, c, n);
+                return slod_cloth_active_nodes(world_.get(), id_, o, c, n);
             },
             "slod_cloth_active_nodes");
     }
@@ -218,7 +230,7 @@ public:
     std::vector<Vec3> vertex_positions() const {
         std::vector<Vec3> v(vertex_count());
         size_t n = 0;
-        check(slod_cloth_vertex_positions(world_, id_, reinterpret_cast<float(*)[3]>(v.data()),
+        check(slod_cloth_vertex_positions(world_.get(), id_, reinterpret_cast<float(*)[3]>(v.data()),
                                           v.size(), &n),
               "slod_cloth_vertex_positions");
         v.resize(n);
@@ -227,20 +239,20 @@ public:
     std::vector<SlodDebugLink> links() const {
         return detail::fetch<SlodDebugLink, SlodDebugLink>(
             [&](SlodDebugLink *o, size_t c, size_t *n) {
-                return slod_cloth_links(world_, id_, o, c, n);
+                return slod_cloth_links(world_.get(), id_, o, c, n);
             },
             "slod_cloth_links");
     }
 
 private:
-    Cloth(SlodWorld *world, SlodClothId id) : world_(world), id_(id) {}
+    Cloth(detail::WorldRef world, SlodClothId id) : world_(std::move(world)), id_(id) {}
     size_t count(SlodResult (*f)(const SlodWorld *, SlodClothId, size_t *), const char *call) const {
         size_t n = 0;
-        check(f(world_, id_, &n), call);
+        check(f(world_.get(), id_, &n), call);
         return n;
     }
 
-    SlodWorld *world_;
+    detail::WorldRef world_;
     SlodClothId id_;
 };
 
@@ -250,19 +262,19 @@ public:
     static Rig from_file(World &world, const std::string &path) {
         SlodRigId id;
         check(slod_rig_load_file(world.get(), path.c_str(), &id), "slod_rig_load_file");
-        return Rig(world.get(), id);
+        return Rig(world.share(), id);
     }
     static Rig from_memory(World &world, const void *bytes, size_t len) {
         SlodRigId id;
         check(slod_rig_load_memory(world.get(), static_cast<const uint8_t *>(bytes), len, &id),
               "slod_rig_load_memory");
-        return Rig(world.get(), id);
+        return Rig(world.share(), id);
     }
-    Rig(Rig &&o) noexcept : world_(o.world_), id_(std::exchange(o.id_, SlodRigId{0, 0})) {}
+    Rig(Rig &&o) noexcept : world_(std::move(o.world_)), id_(std::exchange(o.id_, SlodRigId{0, 0})) {}
     Rig &operator=(Rig &&o) noexcept {
         if (this != &o) {
             reset();
-            world_ = o.world_;
+            world_ = std::move(o.world_);
             id_ = std::exchange(o.id_, SlodRigId{0, 0});
         }
         return *this;
@@ -273,45 +285,45 @@ public:
 
     SlodRigId id() const noexcept { return id_; }
     void reset() noexcept {
-        if (id_.index1 != 0) (void)slod_rig_destroy(world_, id_);
+        if (id_.index1 != 0) (void)slod_rig_destroy(world_.get(), id_);
         id_ = SlodRigId{0, 0};
     }
 
     SlodRigInfo info() const {
         SlodRigInfo i;
-        check(slod_rig_info(world_, id_, &i), "slod_rig_info");
+        check(slod_rig_info(world_.get(), id_, &i), "slod_rig_info");
         return i;
     }
     std::string clip_name(uint32_t clip) const {
         std::vector<char> s = detail::fetch<char, char>(
             [&](char *o, size_t c, size_t *n) {
-                return slod_rig_clip_name(world_, id_, clip, o, c, n);
+                return slod_rig_clip_name(world_.get(), id_, clip, o, c, n);
             },
             "slod_rig_clip_name");
         return s.empty() ? std::string() : std::string(s.data());
     }
     float clip_duration(uint32_t clip) const {
         float d = 0.0f;
-        check(slod_rig_clip_duration(world_, id_, clip, &d), "slod_rig_clip_duration");
+        check(slod_rig_clip_duration(world_.get(), id_, clip, &d), "slod_rig_clip_duration");
         return d;
     }
     /// The first clip with this name, if any.
     std::optional<uint32_t> find_clip(const std::string &name) const {
         uint32_t c = 0;
-        SlodResult r = slod_rig_find_clip(world_, id_, name.c_str(), &c);
+        SlodResult r = slod_rig_find_clip(world_.get(), id_, name.c_str(), &c);
         if (r == SLOD_RESULT_INVALID_ARGUMENT) return std::nullopt;
         check(r, "slod_rig_find_clip");
         return c;
     }
     size_t skin_joint_count(uint32_t skin) const {
         size_t n = 0;
-        check(slod_rig_skin_joint_count(world_, id_, skin, &n), "slod_rig_skin_joint_count");
+        check(slod_rig_skin_joint_count(world_.get(), id_, skin, &n), "slod_rig_skin_joint_count");
         return n;
     }
 
 private:
-    Rig(SlodWorld *world, SlodRigId id) : world_(world), id_(id) {}
-    SlodWorld *world_;
+    Rig(detail::WorldRef world, SlodRigId id) : world_(std::move(world)), id_(id) {}
+    detail::WorldRef world_;
     SlodRigId id_;
 };
 
@@ -319,14 +331,14 @@ private:
 class Crowd {
 public:
     Crowd(World &world, const Rig &rig, const SlodCrowdDesc &desc = slod_default_crowd_desc())
-        : world_(world.get()) {
-        check(slod_crowd_create(world_, rig.id(), &desc, &id_), "slod_crowd_create");
+        : world_(world.share()) {
+        check(slod_crowd_create(world_.get(), rig.id(), &desc, &id_), "slod_crowd_create");
     }
-    Crowd(Crowd &&o) noexcept : world_(o.world_), id_(std::exchange(o.id_, SlodCrowdId{0, 0})) {}
+    Crowd(Crowd &&o) noexcept : world_(std::move(o.world_)), id_(std::exchange(o.id_, SlodCrowdId{0, 0})) {}
     Crowd &operator=(Crowd &&o) noexcept {
         if (this != &o) {
             reset();
-            world_ = o.world_;
+            world_ = std::move(o.world_);
             id_ = std::exchange(o.id_, SlodCrowdId{0, 0});
         }
         return *this;
@@ -338,46 +350,46 @@ public:
     SlodCrowdId id() const noexcept { return id_; }
     /// Destroys the crowd and its characters now (no effect if already done).
     void reset() noexcept {
-        if (id_.index1 != 0) (void)slod_crowd_destroy(world_, id_);
+        if (id_.index1 != 0) (void)slod_crowd_destroy(world_.get(), id_);
         id_ = SlodCrowdId{0, 0};
     }
 
     SlodCharacterId add(const SlodCharacterDesc &desc) {
         SlodCharacterId c;
-        check(slod_character_create(world_, id_, &desc, &c), "slod_character_create");
+        check(slod_character_create(world_.get(), id_, &desc, &c), "slod_character_create");
         return c;
     }
     void remove(SlodCharacterId c) {
-        check(slod_character_destroy(world_, c), "slod_character_destroy");
+        check(slod_character_destroy(world_.get(), c), "slod_character_destroy");
     }
     void set_position(SlodCharacterId c, const Vec3 &p) {
-        check(slod_character_set_position(world_, c, p[0], p[1], p[2]),
+        check(slod_character_set_position(world_.get(), c, p[0], p[1], p[2]),
               "slod_character_set_position");
     }
     void set_clip(SlodCharacterId c, uint32_t clip, float time = 0.0f) {
-        check(slod_character_set_clip(world_, c, clip, time), "slod_character_set_clip");
+        check(slod_character_set_clip(world_.get(), c, clip, time), "slod_character_set_clip");
     }
     void set_speed(SlodCharacterId c, float speed) {
-        check(slod_character_set_speed(world_, c, speed), "slod_character_set_speed");
+        check(slod_character_set_speed(world_.get(), c, speed), "slod_character_set_speed");
     }
     void set_lod(const SlodLodDesc &lod) {
-        check(slod_crowd_set_lod(world_, id_, &lod), "slod_crowd_set_lod");
+        check(slod_crowd_set_lod(world_.get(), id_, &lod), "slod_crowd_set_lod");
     }
     SlodCrowdStats advance(float dt) {
         SlodCrowdStats s;
-        check(slod_crowd_advance(world_, id_, dt, &s), "slod_crowd_advance");
+        check(slod_crowd_advance(world_.get(), id_, dt, &s), "slod_crowd_advance");
         return s;
     }
     size_t size() const {
         size_t n = 0;
-        check(slod_crowd_character_count(world_, id_, &n), "slod_crowd_character_count");
+        check(slod_crowd_character_count(world_.get(), id_, &n), "slod_crowd_character_count");
         return n;
     }
     /// Bone matrices in skeleton model space, column-major.
     std::vector<Mat4> model_matrices(SlodCharacterId c) const {
         return detail::fetch<Mat4, float[16]>(
             [&](float(*o)[16], size_t cap, size_t *n) {
-                return slod_character_model_matrices(world_, c, o, cap, n);
+                return slod_character_model_matrices(world_.get(), c, o, cap, n);
             },
             "slod_character_model_matrices");
     }
@@ -385,13 +397,13 @@ public:
     std::vector<Mat4> skinning_matrices(SlodCharacterId c, uint32_t skin) const {
         return detail::fetch<Mat4, float[16]>(
             [&](float(*o)[16], size_t cap, size_t *n) {
-                return slod_character_skinning_matrices(world_, c, skin, o, cap, n);
+                return slod_character_skinning_matrices(world_.get(), c, skin, o, cap, n);
             },
             "slod_character_skinning_matrices");
     }
 
 private:
-    SlodWorld *world_;
+    detail::WorldRef world_;
     SlodCrowdId id_{0, 0};
 };
 

@@ -243,6 +243,48 @@ void crowd_checks(slod::World &world, const char *rig_path) {
     EXPECT(c.crowds == 1 && c.characters == 11 && c.rigs == 1);
 }
 
+// Handles share their world: a World moved into a variable declared after its handles (so it
+// is destroyed first), or destroyed while handles live, must not be a use-after-free. Under
+// valgrind (tests/tests/cpp_host.rs) any such access is an error.
+void lifetime_checks() {
+    std::optional<slod::Cloth> early;
+    {
+        slod::Cloth cloth = [] {
+            slod::World w;
+            return slod::Cloth::grid(w); // the World dies here, the Cloth keeps it alive
+        }();
+        cloth.step();
+        EXPECT(cloth.vertex_positions().size() == 65u * 65u);
+        early.emplace(std::move(cloth));
+    }
+    {
+        slod::World first;
+        slod::Cloth a = slod::Cloth::grid(first);
+        slod::World later(std::move(first)); // declared after `a`: destroyed before it
+        a.step();
+        EXPECT(later.counts().cloths == 1);
+    }
+    early->step();
+    early.reset();
+}
+
+// Error messages name the call once and the detail once (no doubled code text).
+void message_checks(slod::World &world) {
+    SlodClothDesc bad = slod_default_cloth_desc();
+    bad.spacing = -1.0f;
+    try {
+        (void)slod::Cloth::grid(world, bad);
+        EXPECT(false);
+    } catch (const slod::Error &e) {
+        std::string m = e.what();
+        EXPECT(m.rfind("slod_cloth_create_grid: ", 0) == 0);
+        std::string code = slod_result_str(e.code());
+        size_t first = m.find(code);
+        EXPECT(first == std::string::npos || m.find(code, first + code.size()) == std::string::npos);
+        EXPECT(m.find("desc.spacing") != std::string::npos);
+    }
+}
+
 } // namespace
 
 int main(int argc, char **argv) {
@@ -258,6 +300,8 @@ int main(int argc, char **argv) {
         slod::World world(wd);
         cloth_checks(world);
         crowd_checks(world, argv[1]);
+        lifetime_checks();
+        message_checks(world);
         SlodWorldCounts c = world.counts();
         EXPECT(c.cloths == 0 && c.crowds == 0 && c.rigs == 0 && c.characters == 0);
 

@@ -110,6 +110,45 @@ pub fn compiler_command(build: &cc::Build) -> Command {
         .unwrap_or_else(|e| panic!("no C/C++ compiler for {}: {e}", env!("TARGET")))
         .to_command()
 }
+/// Whether this runs under CI (`CI=true`, as `.ci/run` and most CI services set it).
+pub fn under_ci() -> bool {
+    std::env::var("CI").is_ok_and(|v| v.eq_ignore_ascii_case("true") || v == "1")
+}
+
+/// A `valgrind` memcheck command (errors and definite/possible leaks fail it), or `None` when
+/// valgrind is not installed outside CI (a note is printed). Under CI a missing valgrind panics:
+/// there the memcheck run may not be skipped.
+pub fn memcheck() -> Option<Command> {
+    if !available("valgrind") {
+        assert!(
+            !under_ci(),
+            "CI=true but valgrind is not installed: under CI the memcheck run may not be skipped"
+        );
+        println!("note: valgrind is not installed; skipping the memcheck run (CI installs it)");
+        return None;
+    }
+    let mut cmd = Command::new("valgrind");
+    cmd.args([
+        "--error-exitcode=1",
+        "--leak-check=full",
+        "--show-leak-kinds=definite,possible",
+        "--errors-for-leak-kinds=definite,possible",
+    ]);
+    Some(cmd)
+}
+
+/// Asserts that a memcheck run succeeded with no errors; returns its stdout.
+pub fn assert_memcheck_clean(out: &Output) -> String {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success(),
+        "valgrind reported errors ({}):\n{stderr}",
+        out.status
+    );
+    assert!(stderr.contains("ERROR SUMMARY: 0 errors"), "{stderr}");
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
 /// Runs a command to completion, panicking if it cannot start.
 pub fn run(cmd: &mut Command) -> Output {
     cmd.output()

@@ -7,7 +7,9 @@ use std::path::PathBuf;
 use std::process::Command;
 use std::sync::OnceLock;
 
-use slod_tests::native::{Lang, available, build_executable, repo_root, run, run_ok, scratch_dir};
+use slod_tests::native::{
+    Lang, assert_memcheck_clean, build_executable, memcheck, repo_root, run, run_ok, scratch_dir,
+};
 
 /// The demo, built once per test binary.
 fn demo() -> &'static PathBuf {
@@ -154,31 +156,13 @@ fn c_demo_runs_the_net_and_the_crowd() {
     assert!(out.trim_end().ends_with("demo ok"));
 }
 
-/// Whether this runs under CI (`CI=true`, as `.ci/run` and most CI services set it).
-fn under_ci() -> bool {
-    std::env::var("CI").is_ok_and(|v| v.eq_ignore_ascii_case("true") || v == "1")
-}
-
 #[test]
 fn c_demo_is_clean_under_valgrind() {
-    if !available("valgrind") {
-        // `.ci/run` installs valgrind and sets CI=true: there a missing valgrind is a failure,
-        // not a silently skipped check.
-        assert!(
-            !under_ci(),
-            "CI=true but valgrind is not installed: under CI the memcheck run may not be skipped"
-        );
-        println!("note: valgrind is not installed; skipping the memcheck run (CI installs it)");
+    let Some(mut valgrind) = memcheck() else {
         return;
-    }
+    };
     let exe = demo();
-    let out = run(Command::new("valgrind")
-        .args([
-            "--error-exitcode=1",
-            "--leak-check=full",
-            "--show-leak-kinds=definite,possible",
-            "--errors-for-leak-kinds=definite,possible",
-        ])
+    let out = run(valgrind
         .arg(exe)
         .args([
             "--steps",
@@ -190,12 +174,6 @@ fn c_demo_is_clean_under_valgrind() {
             "--rig",
         ])
         .arg(rig()));
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        out.status.success(),
-        "valgrind reported errors ({}):\n{stderr}",
-        out.status
-    );
-    assert!(stderr.contains("ERROR SUMMARY: 0 errors"), "{stderr}");
-    assert!(String::from_utf8_lossy(&out.stdout).contains("demo ok"));
+    let stdout = assert_memcheck_clean(&out);
+    assert!(stdout.contains("demo ok"));
 }

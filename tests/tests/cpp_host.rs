@@ -6,7 +6,8 @@
 use std::process::Command;
 
 use slod_tests::native::{
-    Lang, build_executable, cc_build, compiler_command, repo_root, run_ok, scratch_dir,
+    Lang, assert_memcheck_clean, build_executable, cc_build, compiler_command, memcheck, repo_root,
+    run, run_ok, scratch_dir,
 };
 
 /// Compiles a one-line translation unit including `header` as `lang`/`std`.
@@ -45,14 +46,36 @@ fn wrapper_compiles_alone_as_cxx17() {
 
 #[test]
 fn cpp_host_drives_a_cloth_and_a_crowd() {
-    let dir = scratch_dir("cpp-host");
-    let exe = build_executable(
-        Lang::Cxx,
-        "c++17",
-        &[repo_root().join("tests/cpp/host.cpp")],
-        &dir.join("host"),
-    );
+    let exe = host();
     let rig = repo_root().join("assets/gltf/GDQuest_GDBot.glb");
     let out = run_ok(Command::new(&exe).arg(&rig));
     assert!(out.contains("cpp host ok"), "{out}");
+}
+
+/// The host built once per test binary.
+fn host() -> std::path::PathBuf {
+    static EXE: std::sync::OnceLock<std::path::PathBuf> = std::sync::OnceLock::new();
+    EXE.get_or_init(|| {
+        let dir = scratch_dir("cpp-host");
+        build_executable(
+            Lang::Cxx,
+            "c++17",
+            &[repo_root().join("tests/cpp/host.cpp")],
+            &dir.join("host"),
+        )
+    })
+    .clone()
+}
+
+/// The C++ host, including its lifetime checks (a World moved into a variable declared after
+/// its handles, handles outliving their World), is clean under valgrind memcheck.
+#[test]
+fn cpp_host_is_clean_under_valgrind() {
+    let Some(mut valgrind) = memcheck() else {
+        return;
+    };
+    let rig = repo_root().join("assets/gltf/GDQuest_GDBot.glb");
+    let out = run(valgrind.arg(host()).arg(&rig));
+    let stdout = assert_memcheck_clean(&out);
+    assert!(stdout.contains("cpp host ok"), "{stdout}");
 }

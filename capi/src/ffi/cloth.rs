@@ -21,6 +21,10 @@ pub const SLOD_MAX_CLOTH_TRIANGLES: u32 = 1 << 24;
 pub const SLOD_MAX_COORDINATE: f32 = 1.0e6;
 /// The node index meaning "no node" (the parent of the root).
 pub const SLOD_NO_NODE: u32 = u32::MAX;
+/// Steps within which an operation undoing an earlier one on the same node counts as undone
+/// (`SlodClothStats::undone_ops`).
+pub const SLOD_UNDO_WINDOW_STEPS: u32 = 30;
+const _: () = assert!(SLOD_UNDO_WINDOW_STEPS as u64 == crate::cloth::UNDO_WINDOW_STEPS);
 
 /// Time stepping and material of a cloth (part of `SlodClothDesc`).
 #[repr(C)]

@@ -29,7 +29,8 @@ pub struct SlodClothStats {
     pub coarses: u64,
     /// Operations the evaluator proposed that a transition in flight refused (retried later).
     pub refused: u64,
-    /// Operations that undid one on the same node begun within 30 steps (flicker).
+    /// Operations that undid one on the same node begun within `SLOD_UNDO_WINDOW_STEPS` steps
+    /// (flicker).
     pub undone_ops: u64,
     /// Wall time of the last step, evaluation included, in milliseconds.
     pub last_step_ms: f64,
