@@ -282,7 +282,12 @@ typedef struct SlodWorldDesc {
   /**
    * Worker threads for the cloth feedback stage: 0 uses one process-wide pool sized to the
    * machine, 1 runs everything on the calling thread (no thread is ever started), n >= 2
-   * gives this world its own pool of n threads (at most 1024), stopped when it is destroyed.
+   * gives this world its own pool of n threads (at most 1024), stopped and joined before
+   * `slod_world_destroy` returns.
+   *
+   * After `fork()`, only the forking thread exists in the child: worker pools (this world's
+   * and the process-wide one) do not survive it. In a child, create new worlds with
+   * `worker_threads` 1 and do not use worlds inherited from the parent.
    */
   uint32_t worker_threads;
 } SlodWorldDesc;

@@ -134,6 +134,11 @@ pub fn memcheck() -> Option<Command> {
         "--show-leak-kinds=definite,possible",
         "--errors-for-leak-kinds=definite,possible",
     ]);
+    // One documented false positive (crossbeam-epoch's tagged pointers), see the file.
+    cmd.arg(format!(
+        "--suppressions={}",
+        repo_root().join("tests/valgrind.supp").display()
+    ));
     Some(cmd)
 }
 

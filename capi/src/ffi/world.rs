@@ -45,7 +45,12 @@ pub struct SlodWorldDesc {
     pub guard: u32,
     /// Worker threads for the cloth feedback stage: 0 uses one process-wide pool sized to the
     /// machine, 1 runs everything on the calling thread (no thread is ever started), n >= 2
-    /// gives this world its own pool of n threads (at most 1024), stopped when it is destroyed.
+    /// gives this world its own pool of n threads (at most 1024), stopped and joined before
+    /// `slod_world_destroy` returns.
+    ///
+    /// After `fork()`, only the forking thread exists in the child: worker pools (this world's
+    /// and the process-wide one) do not survive it. In a child, create new worlds with
+    /// `worker_threads` 1 and do not use worlds inherited from the parent.
     pub worker_threads: u32,
 }
 
@@ -76,6 +81,9 @@ pub struct SlodWorld {
     /// Worker threads of this world when the desc asked for two or more (else the global pool
     /// or none).
     pub(crate) pool: Option<rayon::ThreadPool>,
+    /// The pool's threads, joined when the world is dropped (after the pool), so that
+    /// destroying a world leaves no thread of it running and nothing "possibly lost".
+    threads: Vec<std::thread::JoinHandle<()>>,
     /// The host's camera and light: the one view every cloth step and crowd advance is given.
     pub(crate) view: salience::View,
     pub(crate) cloths: Arena<ClothEntry>,
@@ -83,6 +91,17 @@ pub struct SlodWorld {
     pub(crate) crowds: Arena<animlod::Crowd>,
     /// Each character's crowd and its id inside that crowd.
     pub(crate) characters: Arena<(RawId, animlod::CharacterId)>,
+}
+
+impl Drop for SlodWorld {
+    fn drop(&mut self) {
+        // Dropping the pool tells its threads to finish their work and exit; joining them
+        // makes that happen before `slod_world_destroy` returns.
+        drop(self.pool.take());
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+    }
 }
 
 impl std::fmt::Debug for SlodWorld {
@@ -177,11 +196,21 @@ pub unsafe extern "C" fn slod_world_create(
         if out_world.is_null() {
             return Err(FfiError::Null("out_world"));
         }
+        let mut threads = Vec::new();
         let pool = match desc.worker_threads {
             0 | 1 => None,
             n => Some(
                 rayon::ThreadPoolBuilder::new()
                     .num_threads(n as usize)
+                    .thread_name(|i| format!("slod-world-{i}"))
+                    .spawn_handler(|thread| {
+                        let mut b = std::thread::Builder::new();
+                        if let Some(name) = thread.name() {
+                            b = b.name(name.to_owned());
+                        }
+                        threads.push(b.spawn(|| thread.run())?);
+                        Ok(())
+                    })
                     .build()
                     .map_err(|e| FfiError::Refused(format!("cannot start worker threads: {e}")))?,
             ),
@@ -189,6 +218,7 @@ pub unsafe extern "C" fn slod_world_create(
         let world = Box::new(SlodWorld {
             desc,
             pool,
+            threads,
             view: salience::View::default(),
             cloths: Arena::default(),
             rigs: Arena::default(),
