@@ -11,6 +11,11 @@
  * one rule for all: out NULL with cap 0 sizes the buffer (*out_len = the count, SLOD_RESULT_OK);
  * otherwise out and *out_len are written only on success (cap too small:
  * SLOD_RESULT_BUFFER_TOO_SMALL; out NULL with cap > 0: SLOD_RESULT_NULL_ARGUMENT).
+ * Descs: start every *Desc from its slod_default_*_desc() and change fields, e.g.
+ *   SlodClothDesc d = slod_default_cloth_desc(); d.columns = 33;
+ * The default carries the `guard` field (SLOD_DESC_GUARD); a zero-initialised or hand-filled
+ * static desc without it is refused with SLOD_RESULT_INVALID_ARGUMENT naming "desc", so a
+ * field added in a later version can never be read as garbage.
  */
 
 #ifndef SLOD_H
