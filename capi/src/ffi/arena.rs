@@ -19,7 +19,10 @@ pub(crate) struct RawId {
 
 impl RawId {
     fn handle(self) -> Option<Handle> {
-        Some(Handle::from_raw(self.index1.checked_sub(1)?, self.generation))
+        Some(Handle::from_raw(
+            self.index1.checked_sub(1)?,
+            self.generation,
+        ))
     }
 
     fn from_handle(h: Handle) -> RawId {
