@@ -1,5 +1,10 @@
 //! The budgeted evaluator: priorities in, a batch of refine/coarse operations out.
 //!
+//! Based on the split and merge queues of Duchaineau, Wolinsky, Sigeti, Miller, Aldrich and
+//! Mineev-Weinstein, "ROAMing Terrain: Real-time Optimally Adapting Meshes", IEEE
+//! Visualization 1997: greedy splits from a max-queue and merges from a min-queue of priorities,
+//! here over a tree cut instead of a triangle bintree and under a node or cost budget.
+//!
 //! Two priority queues, as in ROAM: a max-queue of nodes to split (refine), keyed by the node's
 //! priority, and a min-queue of parents to merge (coarse), keyed by the largest priority among the
 //! children (a parent may only be merged when none of its children matters). While under budget
@@ -9,6 +14,11 @@
 //! taken (fanouts may differ). Because a swap needs
 //! a strict gain of more than the threshold, the reverse swap cannot follow while priorities stay
 //! the same: nothing flickers.
+//!
+//! Where the batch runs as transitions that lock their neighbourhood (`softbody`'s TreeCut soft
+//! body), [`Evaluator::evaluate_with_locks`] is told what each operation locks and plans only
+//! operations that can begin after the ones before them, so the batch it returns is the batch
+//! that runs.
 
 use std::cmp::{Ordering, Reverse};
 use std::collections::BinaryHeap;
@@ -68,6 +78,10 @@ pub struct EvaluatorSettings {
     /// A refine that needs merges to fit must beat each merged parent's priority by more than this.
     pub hysteresis: f32,
     /// Most operations proposed per call, to bound the work of applying them in one frame.
+    ///
+    /// The merges that bring an over-budget cut back within its budget count too: where
+    /// operations run as transitions, each one costs simulation time while it blends, so a
+    /// budget that shrinks is met over several calls rather than by one burst of transitions.
     pub max_ops: usize,
     /// Where merge priorities come from.
     pub merge_key: MergeKey,
@@ -118,8 +132,19 @@ pub struct Evaluator {
     touched: Vec<NodeId>,
     held: Vec<(Priority, NodeId)>,
     skipped: Vec<(Priority, NodeId)>,
+    /// Nodes locked by the operations of this batch (see [`Evaluator::evaluate_with_locks`]),
+    /// indexed by node; `batch_locked` lists them for the reset.
+    blocked: Vec<bool>,
+    batch_locked: Vec<NodeId>,
+    /// What the held merges of a swap would lock (they are not applied yet).
+    held_locks: Vec<NodeId>,
+    /// What one operation locks, as the caller's rule answers.
+    op_locks: Vec<NodeId>,
     ops: Vec<Op>,
 }
+
+/// The caller's lock rule: appends to its second argument what beginning an operation locks.
+type LockRule<'a> = &'a dyn Fn(Op, &mut Vec<NodeId>);
 
 /// Read-only inputs of one evaluation, bundled to keep helper signatures short.
 struct Inputs<'a> {
@@ -127,6 +152,7 @@ struct Inputs<'a> {
     cut: &'a Cut,
     priorities: &'a [f32],
     costs: Option<&'a [f32]>,
+    locks: Option<LockRule<'a>>,
 }
 
 impl Inputs<'_> {
@@ -154,6 +180,10 @@ impl Evaluator {
             touched: Vec::new(),
             held: Vec::new(),
             skipped: Vec::new(),
+            blocked: Vec::new(),
+            batch_locked: Vec::new(),
+            held_locks: Vec::new(),
+            op_locks: Vec::new(),
             ops: Vec::new(),
         }
     }
@@ -168,13 +198,15 @@ impl Evaluator {
         self.settings = settings;
     }
 
-    /// Proposes the batch of operations that best spends `budget` given a priority per node.
+    /// Proposes the batch of operations that best spends `budget` given a priority per node, for
+    /// a caller that applies it at once ([`Cut::refine`], [`Cut::coarse`]).
     ///
     /// `priorities` and `costs` are indexed by [`NodeId::index`] over the whole hierarchy; only
     /// the entries of active nodes are read. `costs` is needed for [`Budget::Cost`] and ignored
     /// otherwise. The operations are valid when applied in order, never touch a locked node, and
     /// never undo each other within a batch. Children created by a refine are not refined again in
-    /// the same batch: their priorities are not known until the caller measures them.
+    /// the same batch: their priorities are not known until the caller measures them. If the cut
+    /// was within budget, every prefix of the batch is too.
     ///
     /// If the cut is over budget, parents are merged (least important first) without hysteresis
     /// until it fits, the operation cap is reached, or nothing can be merged.
@@ -186,7 +218,59 @@ impl Evaluator {
         costs: Option<&[f32]>,
         budget: Budget,
     ) -> Result<&[Op], EvalError> {
-        let inputs = self.validate(h, cut, priorities, costs, budget)?;
+        let inputs = self.validate(h, cut, priorities, costs, budget, None)?;
+        self.run(&inputs, budget);
+        Ok(&self.ops)
+    }
+
+    /// As [`Evaluator::evaluate`], for a caller that begins the operations one after the other
+    /// as transitions that lock nodes until they end, and refuses to begin one on a locked node
+    /// ([`Cut::lock`], [`CutError::Locked`](crate::CutError::Locked)).
+    ///
+    /// `locks(op, out)` appends to `out` the nodes that beginning `op` now would lock
+    /// (duplicates allowed). `softbody`'s `TreeCutSoftBody::would_lock` answers it for the
+    /// TreeCut soft body, which locks an operation's nodes and every simulated node next to
+    /// them, and whose cut carries the locks of the transitions in flight.
+    ///
+    /// The batch returned then begins in full, in the order returned, and stays within the
+    /// budget after each operation (if the cut was within it): no operation names a node locked
+    /// in `cut` (in or next to a transition in flight) or locked by an earlier operation of the
+    /// batch (with softbody's rule: next to one). Why the caller needs this: an operation
+    /// refused half-way through a batch would leave the rest of the batch unbalanced, e.g. the
+    /// refine of a swap without the merge that made room for it.
+    ///
+    /// The plan is the one [`Evaluator::evaluate`] makes, with two differences. A merge that an
+    /// earlier operation locks is passed over for the next one in the queue. A refine that an
+    /// earlier operation locks (including a merge of the same swap, made next to it) is left out
+    /// but keeps the room it needs: that room is not given to nodes that matter less, so the
+    /// node is refined at a later call, once the transitions next to it end, rather than having
+    /// to win its place back by a swap against the hysteresis. Locks also slow merging: a
+    /// parent merged in this batch is locked, so its own parent is not merged too, and an
+    /// over-budget cut merges at most one family per neighbourhood (and `max_ops` in all) per
+    /// call.
+    ///
+    /// The evaluator asks only about operations that can begin, and asks before the batch's
+    /// earlier operations have begun, so the answer must not depend on them. It does not for a
+    /// rule whose locks cover everything next to what an operation changes (softbody's): a later
+    /// operation of the batch is never next to an earlier one, so its neighbours are the same
+    /// before and after.
+    pub fn evaluate_with_locks(
+        &mut self,
+        h: &Hierarchy,
+        cut: &Cut,
+        priorities: &[f32],
+        costs: Option<&[f32]>,
+        budget: Budget,
+        locks: &dyn Fn(Op, &mut Vec<NodeId>),
+    ) -> Result<&[Op], EvalError> {
+        let inputs = self.validate(h, cut, priorities, costs, budget, Some(locks))?;
+        self.run(&inputs, budget);
+        Ok(&self.ops)
+    }
+
+    /// The planning loop shared by both entry points; leaves the batch in `self.ops`.
+    fn run(&mut self, inputs: &Inputs<'_>, budget: Budget) {
+        let (h, cut) = (inputs.h, inputs.cut);
         let limit = match budget {
             Budget::Nodes(n) => n as f64,
             Budget::Cost { limit } => limit as f64,
@@ -207,12 +291,12 @@ impl Evaluator {
                 Some(c) => c[n.index()] as f64,
             };
             if !h.is_leaf(n) && !cut.is_locked(n) {
-                split.push((Priority(priorities[n.index()]), Reverse(n)));
+                split.push((Priority(inputs.priorities[n.index()]), Reverse(n)));
                 min_delta = min_delta.min(inputs.refine_delta(n));
             }
             if let Some(p) = h.parent(n)
                 && h.children(p).first() == Some(n)
-                && let Some(key) = self.merge_key(&inputs, p)
+                && let Some(key) = self.merge_key(inputs, p)
             {
                 merge.push(Reverse((Priority(key), p)));
             }
@@ -223,23 +307,24 @@ impl Evaluator {
         let eps = 1e-6 * limit.abs().max(1.0);
         let threshold = self.settings.hysteresis;
         // Once a swap fails, every lower split would fail it too (its gain is smaller): from then
-        // on only refines that fit outright are taken, which matters when fanouts differ.
+        // on only refines that fit outright are taken, which matters when fanouts differ. A swap
+        // that failed for want of merges the locks allow says nothing about other splits.
         let mut swaps_exhausted = false;
         while self.ops.len() < self.settings.max_ops {
             if spent > limit + eps {
-                match self.pop_merge(&inputs) {
-                    Some((_, p)) => spent -= self.apply_coarse(&inputs, p),
+                match self.pop_merge(inputs) {
+                    Some((_, p)) => spent -= self.apply_coarse(inputs, p),
                     None => break,
                 }
                 continue;
             }
-            let Some((ps, s)) = self.peek_split(&inputs) else {
+            let Some((ps, s)) = self.peek_split(inputs) else {
                 break;
             };
             let delta = inputs.refine_delta(s);
             if spent + delta <= limit + eps {
                 self.split.pop();
-                spent += self.apply_refine(&inputs, s);
+                spent += self.refine_or_claim(inputs, s);
                 continue;
             }
             if swaps_exhausted {
@@ -249,11 +334,13 @@ impl Evaluator {
                 self.split.pop();
                 continue;
             }
-            // Swap: free room by merging parents that matter clearly less than `s`.
+            // Swap: free room by merging parents that matter clearly less than `s`. The merges
+            // begin first, in the order held, then `s`.
             let mut freed = 0f64;
+            let mut lock_refused = false;
             let room = self.settings.max_ops - self.ops.len();
             while spent + delta - freed > limit + eps && self.held.len() + 1 < room {
-                let Some((km, m)) = self.pop_merge(&inputs) else {
+                let Some((km, m)) = self.pop_merge(inputs) else {
                     break;
                 };
                 if Some(m) == h.parent(s) {
@@ -264,9 +351,15 @@ impl Evaluator {
                     self.skipped.push((km, m));
                     break;
                 }
+                if !self.hold_locks(inputs, m) {
+                    self.skipped.push((km, m));
+                    lock_refused = true;
+                    continue;
+                }
                 freed += inputs.refine_delta(m);
                 self.held.push((km, m));
             }
+            self.held_locks.clear();
             let fits = spent + delta - freed <= limit + eps;
             for (k, m) in self.skipped.drain(..) {
                 self.merge.push(Reverse((k, m)));
@@ -275,20 +368,64 @@ impl Evaluator {
                 for (k, m) in self.held.drain(..) {
                     self.merge.push(Reverse((k, m)));
                 }
-                swaps_exhausted = true;
+                swaps_exhausted |= !lock_refused;
                 self.split.pop();
                 continue;
             }
             let held = std::mem::take(&mut self.held);
             for &(_, m) in &held {
-                spent -= self.apply_coarse(&inputs, m);
+                spent -= self.apply_coarse(inputs, m);
             }
             self.held = held;
             self.held.clear();
             self.split.pop();
-            spent += self.apply_refine(&inputs, s);
+            spent += self.refine_or_claim(inputs, s);
         }
-        Ok(&self.ops)
+    }
+
+    /// Refines `n`, or, if an earlier operation of this batch locks it, leaves it out and keeps
+    /// the room it needs (see [`Evaluator::evaluate_with_locks`]); returns the budget spent or
+    /// kept.
+    fn refine_or_claim(&mut self, inputs: &Inputs<'_>, n: NodeId) -> f64 {
+        if self.blocked[n.index()] {
+            inputs.refine_delta(n)
+        } else {
+            self.apply_refine(inputs, n)
+        }
+    }
+
+    /// With a lock rule, checks that merging `m` can follow the merges held so far (none of them
+    /// locks `m` or its children), and if so adds what it locks to the held locks. Always true
+    /// without a rule.
+    fn hold_locks(&mut self, inputs: &Inputs<'_>, m: NodeId) -> bool {
+        let Some(rule) = inputs.locks else {
+            return true;
+        };
+        let kids = inputs.h.children(m);
+        if self.held_locks.iter().any(|&x| x == m || kids.contains(x)) {
+            return false;
+        }
+        rule(Op::Coarse(m), &mut self.held_locks);
+        true
+    }
+
+    /// Records the locks that beginning `op` takes (nothing without a lock rule).
+    fn lock(&mut self, inputs: &Inputs<'_>, op: Op) {
+        let Some(rule) = inputs.locks else {
+            return;
+        };
+        let mut out = std::mem::take(&mut self.op_locks);
+        out.clear();
+        rule(op, &mut out);
+        for &n in &out {
+            if let Some(b) = self.blocked.get_mut(n.index())
+                && !*b
+            {
+                *b = true;
+                self.batch_locked.push(n);
+            }
+        }
+        self.op_locks = out;
     }
 
     fn validate<'a>(
@@ -298,6 +435,7 @@ impl Evaluator {
         priorities: &'a [f32],
         costs: Option<&'a [f32]>,
         budget: Budget,
+        locks: Option<LockRule<'a>>,
     ) -> Result<Inputs<'a>, EvalError> {
         if cut.hierarchy_len() != h.len() {
             return Err(EvalError::WrongHierarchy);
@@ -353,6 +491,7 @@ impl Evaluator {
             cut,
             priorities,
             costs,
+            locks,
         })
     }
 
@@ -360,12 +499,18 @@ impl Evaluator {
         if self.overlay.len() != len {
             self.overlay = vec![UNCHANGED; len];
             self.merged_priority = vec![0.0; len];
+            self.blocked = vec![false; len];
         } else {
             for n in self.touched.drain(..) {
                 self.overlay[n.index()] = UNCHANGED;
             }
+            for n in self.batch_locked.drain(..) {
+                self.blocked[n.index()] = false;
+            }
         }
         self.touched.clear();
+        self.batch_locked.clear();
+        self.held_locks.clear();
         self.split.clear();
         self.merge.clear();
         self.held.clear();
@@ -399,15 +544,21 @@ impl Evaluator {
         self.overlay[n.index()] = state;
     }
 
+    /// Whether `n` is locked, in the cut or by an earlier operation of this batch.
+    #[inline]
+    fn locked(&self, cut: &Cut, n: NodeId) -> bool {
+        cut.is_locked(n) || self.blocked[n.index()]
+    }
+
     /// Whether `p` may be merged now: unlocked, off the cut, children all active, unlocked and not
     /// created by a refine of this batch (that would undo it).
     fn mergeable(&self, inputs: &Inputs<'_>, p: NodeId) -> bool {
         let cut = inputs.cut;
-        !cut.is_locked(p)
+        !self.locked(cut, p)
             && !self.on_cut(cut, p)
             && inputs.h.children(p).all(|k| {
                 self.on_cut(cut, k)
-                    && !cut.is_locked(k)
+                    && !self.locked(cut, k)
                     && self.overlay[k.index()] != ADDED_BY_REFINE
             })
     }
@@ -458,11 +609,12 @@ impl Evaluator {
             self.mark(k, ADDED_BY_REFINE);
         }
         self.ops.push(Op::Refine(n));
+        self.lock(inputs, Op::Refine(n));
         inputs.refine_delta(n)
     }
 
     /// Records a coarse of `p` in the overlay; returns the budget it frees. The grandparent may
-    /// become mergeable in turn.
+    /// become mergeable in turn (unless a lock rule locks `p`).
     fn apply_coarse(&mut self, inputs: &Inputs<'_>, p: NodeId) -> f64 {
         let key = inputs
             .h
@@ -475,6 +627,7 @@ impl Evaluator {
         self.mark(p, ADDED_BY_COARSE);
         self.merged_priority[p.index()] = key;
         self.ops.push(Op::Coarse(p));
+        self.lock(inputs, Op::Coarse(p));
         if let Some(g) = inputs.h.parent(p) {
             self.push_merge_candidate(inputs, g);
         }

@@ -383,3 +383,266 @@ fn parent_merge_keys_keep_size_scaled_refines() {
         );
     }
 }
+
+// --- Batches for callers whose operations run as locking transitions ---
+
+/// What an operation changes: the refined node, or the merged parent.
+fn region(op: Op) -> NodeId {
+    op.node()
+}
+
+/// Whether two regions overlap or touch (some mesh edge joins them).
+fn touch(h: &Hierarchy, a: NodeId, b: NodeId) -> bool {
+    h.is_ancestor_or_self(a, b) || h.is_ancestor_or_self(b, a) || h.adjacent(a, b)
+}
+
+/// The lock rule of softbody's TreeCut soft body, by brute force over the cut: beginning an
+/// operation locks its nodes (the refined node's children; the merged parent and its children)
+/// and every active node next to what it changes.
+fn neighbourhood_locks(h: &Hierarchy, cut: &Cut, op: Op, out: &mut Vec<NodeId>) {
+    match op {
+        Op::Refine(n) => out.extend(h.children(n)),
+        Op::Coarse(p) => {
+            out.push(p);
+            out.extend(h.children(p));
+        }
+    }
+    out.extend(
+        cut.active()
+            .iter()
+            .copied()
+            .filter(|&a| h.adjacent(a, region(op))),
+    );
+}
+
+fn sorted_locks(h: &Hierarchy, cut: &Cut, op: Op) -> Vec<NodeId> {
+    let mut v = Vec::new();
+    neighbourhood_locks(h, cut, op, &mut v);
+    v.sort();
+    v.dedup();
+    v
+}
+
+/// A transition in flight, as the test simulates softbody's: what it changes, what it locked,
+/// and how many more rounds it runs.
+struct InFlight {
+    op: Op,
+    locked: Vec<NodeId>,
+    rounds_left: u32,
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// Given the lock rule, every batch begins in full on a cut whose transitions lock their
+    /// neighbourhoods: no operation touches (overlaps or is next to) a transition in flight or
+    /// another operation of the batch, what the rule said before the batch is what the
+    /// operation locks when it begins, and the budget holds after every operation.
+    #[test]
+    fn locked_batches_begin_in_full_and_fit(
+        grid in any::<bool>(), cols in 2u32..18, rows in 2u32..18, seed in any::<u64>(),
+        budget_frac in 0.05f32..1.0, max_ops in 1usize..24, hysteresis in 0f32..0.3,
+        parent_key in any::<bool>(), use_cost in any::<bool>(), rounds in 4usize..20,
+    ) {
+        let h = hierarchy(grid, cols, rows, seed);
+        let mut cut = Cut::uniform(&h, (seed % 3) as u32);
+        let merge_key = if parent_key { MergeKey::Parent } else { MergeKey::MaxOfChildren };
+        let mut ev = Evaluator::new(EvaluatorSettings { hysteresis, max_ops, merge_key });
+        let costs: Vec<f32> = (0..h.len()).map(|i| 1.0 + (i % 3) as f32).collect();
+        let nodes = ((h.vertex_count() as f32 * budget_frac) as usize).max(1);
+        let (budget, limit) = if use_cost {
+            let limit = nodes as f32 * 2.0;
+            (Budget::Cost { limit }, limit)
+        } else {
+            (Budget::Nodes(nodes), nodes as f32)
+        };
+        let spend = |c: &Cut| -> f32 {
+            if use_cost { c.active().iter().map(|n| costs[n.index()]).sum() } else { c.len() as f32 }
+        };
+        let mut in_flight: Vec<InFlight> = Vec::new();
+        for r in 0..rounds {
+            // Transitions that are done end and release their locks.
+            in_flight.retain_mut(|t| {
+                if t.rounds_left == 0 {
+                    for &n in &t.locked { cut.unlock(n).unwrap(); }
+                    false
+                } else {
+                    t.rounds_left -= 1;
+                    true
+                }
+            });
+            let prio: Vec<f32> = (0..h.len())
+                .map(|i| ((i as u64 * 2654435761 + seed + r as u64 * 97) % 1000) as f32 / 1000.0)
+                .collect();
+            let before = cut.clone();
+            let rule = |op: Op, out: &mut Vec<NodeId>| neighbourhood_locks(&h, &before, op, out);
+            let ops = ev
+                .evaluate_with_locks(&h, &before, &prio, Some(&costs), budget, &rule)
+                .unwrap()
+                .to_vec();
+            prop_assert!(ops.len() <= max_ops);
+            let promised: Vec<Vec<NodeId>> =
+                ops.iter().map(|&op| sorted_locks(&h, &before, op)).collect();
+            let within = spend(&before) <= limit + 1e-3;
+            for (i, &op) in ops.iter().enumerate() {
+                for t in &in_flight {
+                    prop_assert!(!touch(&h, region(op), region(t.op)),
+                        "{:?} touches {:?}, in flight", op, t.op);
+                }
+                for &e in &ops[..i] {
+                    prop_assert!(!touch(&h, region(op), region(e)),
+                        "{:?} touches {:?} of the same batch", op, e);
+                }
+                // Begin it as softbody would: checked against the locks, then locking.
+                let locked = sorted_locks(&h, &cut, op);
+                prop_assert_eq!(&locked, &promised[i], "{:?} locks differently once begun", op);
+                let before_op = spend(&cut);
+                match op {
+                    Op::Refine(n) => prop_assert_eq!(cut.refine(&h, n), Ok(())),
+                    Op::Coarse(p) => prop_assert_eq!(cut.coarse(&h, p), Ok(())),
+                }
+                for &n in &locked { cut.lock(n); }
+                in_flight.push(InFlight { op, locked, rounds_left: (seed >> (i % 60)) as u32 % 3 });
+                // Never above the budget, or while above it (the start was), never growing.
+                let after = spend(&cut);
+                prop_assert!(after <= limit + 1e-3 || (!within && after <= before_op),
+                    "{:?} went over budget: {} -> {} > {}", op, before_op, after, limit);
+            }
+            cut.check_invariant(&h).unwrap();
+        }
+    }
+}
+
+/// Two neighbours both worth refining, room for both: a batch for transitions refines the
+/// first only (the second is locked by it) and keeps the second's room free rather than give
+/// it to a node that matters less; once the first transition ends, the second is refined.
+#[test]
+fn a_locked_refine_keeps_its_room() {
+    let h = Hierarchy::grid(&GridSpec::horizontal(17, 17, 1.0, 1.0)).unwrap();
+    let mut cut = Cut::uniform(&h, 1);
+    let active = cut.active().to_vec();
+    let a = active[20];
+    let b = *h
+        .level_neighbours(a)
+        .iter()
+        .find(|&&b| !h.is_leaf(b) && h.child_count(b) <= h.child_count(a))
+        .unwrap();
+    let c = *active
+        .iter()
+        .find(|&&c| !touch(&h, c, a) && !touch(&h, c, b) && h.child_count(c) == h.child_count(b))
+        .unwrap();
+    let mut prio = vec![0.1f32; h.len()];
+    prio[a.index()] = 0.9;
+    prio[b.index()] = 0.8;
+    prio[c.index()] = 0.5;
+    let grow = |n: NodeId| h.child_count(n) - 1;
+    let budget = Budget::Nodes(cut.len() + grow(a) + grow(b));
+    // No swaps: only refines that fit outright.
+    let mut ev = Evaluator::new(EvaluatorSettings {
+        hysteresis: 10.0,
+        max_ops: 8,
+        ..Default::default()
+    });
+    let plain = ev.evaluate(&h, &cut, &prio, None, budget).unwrap().to_vec();
+    assert_eq!(plain, vec![Op::Refine(a), Op::Refine(b)]);
+    let rule = |op: Op, out: &mut Vec<NodeId>| neighbourhood_locks(&h, &cut, op, out);
+    let locked = ev
+        .evaluate_with_locks(&h, &cut, &prio, None, budget, &rule)
+        .unwrap()
+        .to_vec();
+    assert_eq!(locked, vec![Op::Refine(a)], "c must not take b's room");
+    // Begin a, let its transition end, then b follows.
+    let locks = sorted_locks(&h, &cut, Op::Refine(a));
+    assert!(locks.contains(&b));
+    cut.refine(&h, a).unwrap();
+    for k in h.children(a) {
+        prio[k.index()] = 0.1;
+    }
+    let rule = |op: Op, out: &mut Vec<NodeId>| neighbourhood_locks(&h, &cut, op, out);
+    let ops = ev
+        .evaluate_with_locks(&h, &cut, &prio, None, budget, &rule)
+        .unwrap()
+        .to_vec();
+    assert_eq!(ops, vec![Op::Refine(b)]);
+}
+
+/// A swap whose only worthwhile merge is next to the node to refine: softbody would refuse the
+/// refine once the merge began, so the batch holds the merge alone, the room it frees kept for
+/// the refine, which fits outright at the next call.
+#[test]
+fn a_swap_next_to_its_merge_completes_at_the_next_call() {
+    let h = Hierarchy::grid(&GridSpec::horizontal(17, 17, 1.0, 1.0)).unwrap();
+    let mut cut = Cut::uniform(&h, 1);
+    let (s, m) = cut
+        .active()
+        .iter()
+        .filter(|&&s| !h.is_leaf(s))
+        .find_map(|&s| {
+            let m = h
+                .level_neighbours(s)
+                .iter()
+                .filter_map(|&y| h.parent(y))
+                .find(|&m| Some(m) != h.parent(s) && h.child_count(m) >= h.child_count(s))?;
+            Some((s, m))
+        })
+        .unwrap();
+    let mut prio = vec![0.5f32; h.len()];
+    prio[s.index()] = 0.9;
+    for k in h.children(m) {
+        prio[k.index()] = 0.1;
+    }
+    let budget = Budget::Nodes(cut.len());
+    let mut ev = Evaluator::new(EvaluatorSettings {
+        hysteresis: 0.45,
+        max_ops: 8,
+        ..Default::default()
+    });
+    let plain = ev.evaluate(&h, &cut, &prio, None, budget).unwrap().to_vec();
+    assert_eq!(plain, vec![Op::Coarse(m), Op::Refine(s)]);
+    let rule = |op: Op, out: &mut Vec<NodeId>| neighbourhood_locks(&h, &cut, op, out);
+    let locked = ev
+        .evaluate_with_locks(&h, &cut, &prio, None, budget, &rule)
+        .unwrap()
+        .to_vec();
+    assert_eq!(locked, vec![Op::Coarse(m)]);
+    assert!(sorted_locks(&h, &cut, Op::Coarse(m)).contains(&s));
+    cut.coarse(&h, m).unwrap();
+    prio[m.index()] = 0.1;
+    let rule = |op: Op, out: &mut Vec<NodeId>| neighbourhood_locks(&h, &cut, op, out);
+    let ops = ev
+        .evaluate_with_locks(&h, &cut, &prio, None, budget, &rule)
+        .unwrap()
+        .to_vec();
+    assert_eq!(ops, vec![Op::Refine(s)]);
+}
+
+/// Without a lock rule nothing changes: `evaluate_with_locks` with a rule that locks nothing
+/// plans exactly what `evaluate` plans.
+#[test]
+fn a_rule_that_locks_nothing_plans_as_evaluate() {
+    let h = Hierarchy::grid(&GridSpec::horizontal(33, 33, 1.0, 1.0)).unwrap();
+    let mut cut = Cut::uniform(&h, 2);
+    let mut ev = Evaluator::new(EvaluatorSettings {
+        hysteresis: 0.05,
+        max_ops: 16,
+        ..Default::default()
+    });
+    for round in 0..20u64 {
+        let prio: Vec<f32> = (0..h.len() as u64)
+            .map(|i| ((i * 2654435761 + round * 40503) % 1000) as f32 / 1000.0)
+            .collect();
+        let budget = Budget::Nodes(200 + 40 * (round as usize % 5));
+        let plain = ev.evaluate(&h, &cut, &prio, None, budget).unwrap().to_vec();
+        let none = ev
+            .evaluate_with_locks(&h, &cut, &prio, None, budget, &|_, _| {})
+            .unwrap()
+            .to_vec();
+        assert_eq!(plain, none);
+        for op in plain {
+            match op {
+                Op::Refine(n) => cut.refine(&h, n).unwrap(),
+                Op::Coarse(p) => cut.coarse(&h, p).unwrap(),
+            }
+        }
+    }
+}

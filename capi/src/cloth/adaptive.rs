@@ -8,8 +8,8 @@ use std::time::Instant;
 
 use glam::Vec3;
 use salience::View;
-use softbody::{DrawLink, TreeCutError, TreeCutSettings, TreeCutSoftBody};
-use treecut::{CutError, GridSpec, Hierarchy, NodeId, Op};
+use softbody::{DrawLink, TreeCutSettings, TreeCutSoftBody};
+use treecut::{GridSpec, Hierarchy, NodeId, Op};
 
 use super::error::ClothError;
 use super::feedback::{Feedback, FeedbackSettings, node_radii};
@@ -28,8 +28,9 @@ pub struct ClothStats {
     pub refines: u64,
     /// Coarses begun (by feedback or explicitly).
     pub coarses: u64,
-    /// Operations the evaluator proposed that the body refused because a neighbouring
-    /// transition had locked the node (they are proposed again later).
+    /// Operations the evaluator proposed that the body refused. Always 0: the evaluator plans
+    /// around the locks of transitions (see [`treecut::Evaluator::evaluate_with_locks`]), and a
+    /// refusal is an error of [`AdaptiveCloth::step`]. Kept because the C statistics report it.
     pub refused: u64,
     /// Operations that undid an operation on the same node begun within
     /// [`UNDO_WINDOW_STEPS`] steps (a refine after a coarse of that node, or the reverse).
@@ -255,7 +256,9 @@ impl AdaptiveCloth {
     }
 
     /// Runs the feedback stage once now, seeing the cloth through `view`: salience, evaluator,
-    /// begin operations. Refused (nothing changed) without feedback settings.
+    /// begin operations. Refused (nothing changed) without feedback settings. The evaluator plans
+    /// only operations the body can begin one after the other, so every one begins; an operation
+    /// the body refused anyway would be returned as its error (after the ones before it began).
     pub fn evaluate(&mut self, view: &View) -> Result<(), ClothError> {
         let Some(f) = self.feedback.as_mut() else {
             return Err(ClothError::Feedback {
@@ -272,64 +275,32 @@ impl AdaptiveCloth {
         )?;
         let h = self.body.hierarchy_arc().clone();
         let budget = f.node_budget(h.vertex_count());
-        // Over budget, the merges that bring the cut back are not limited to `max_ops`: a
-        // shrinking budget (a new target time, a host's new node count) is met within a few
-        // evaluations instead of dozens. Transitions lock their neighbourhoods, so about one
-        // merge in a region per evaluation proceeds anyway; their cost is a microsecond each.
-        let excess = self.body.cut().len().saturating_sub(budget);
-        let mut settings = f.settings.evaluator_settings();
-        settings.max_ops = settings.max_ops.max(excess);
-        f.evaluator.set_settings(settings);
-        let ops = f.evaluator.evaluate(
+        // The evaluator knows what beginning each operation locks (transitions lock their
+        // neighbourhoods), so every operation of the batch begins, in the order given, and the
+        // cut stays within the budget after each; a refusal is a bug, reported as an error.
+        // Over budget, merges count against `max_ops` like any operation: uncapped, a shrinking
+        // time budget began hundreds of transitions per evaluation, whose blending slowed the
+        // steps the controller measures, and it undershot (see `EvaluatorSettings::max_ops`).
+        let body = &self.body;
+        let ops = f.evaluator.evaluate_with_locks(
             &h,
-            self.body.cut(),
+            body.cut(),
             &f.priorities,
             None,
             treecut::Budget::Nodes(budget),
+            &|op, out| body.would_lock(op, out),
         )?;
         self.ops.clear();
         self.ops.extend_from_slice(ops);
         self.stats.evaluations += 1;
         self.stats.node_budget = budget;
-        let mut ops = std::mem::take(&mut self.ops);
-        // Coarses first, then refines while the cut stays within the budget. The evaluator pairs
-        // each refine that needs room with the merges that make it, but a transition begun here
-        // locks its neighbourhood and may refuse a later merge of the batch; refining anyway
-        // would overrun the budget and force merges without hysteresis at the next evaluation,
-        // which is exactly the back-and-forth the threshold exists to prevent. (Reordering is
-        // valid: within a batch no coarse depends on a refine and no refine on a coarse.)
-        ops.sort_by_key(|op| matches!(op, Op::Refine(_)));
-        let mut refused_before = false;
-        for &op in &ops {
-            let (result, kind) = match op {
-                Op::Refine(n) => {
-                    let grows = h.child_count(n).saturating_sub(1);
-                    if self.body.cut().len() + grows > budget {
-                        self.stats.refused += 1;
-                        continue;
-                    }
-                    (self.body.begin_refine(n), OP_REFINE)
-                }
-                Op::Coarse(n) => (self.body.begin_coarse(n), OP_COARSE),
-            };
-            match result {
-                Ok(()) => self.record(op.node(), kind),
-                // The evaluator's batch is valid on the cut, but an earlier operation of it
-                // locked this node's neighbourhood (transitions lock their neighbours), or was
-                // itself refused and this one built on it. Either way nothing changed; the
-                // evaluator proposes it again once the transitions in flight end.
-                Err(e) => {
-                    debug_assert!(
-                        refused_before || matches!(e, TreeCutError::Cut(CutError::Locked(_))),
-                        "evaluator proposed an invalid operation: {e}"
-                    );
-                    refused_before = true;
-                    self.stats.refused += 1;
-                }
-            }
-        }
+        let ops = std::mem::take(&mut self.ops);
+        let begun = ops.iter().try_for_each(|&op| match op {
+            Op::Refine(n) => self.refine(n),
+            Op::Coarse(n) => self.coarse(n),
+        });
         self.ops = ops;
-        Ok(())
+        begun
     }
 
     /// Positions of every finest-level vertex reconstructed from the current nodes (for

@@ -85,11 +85,51 @@ fn node_budget_is_reached_and_held() {
         }
         assert!((c.body().total_mass() - mass).abs() < 1e-5 * mass);
     }
-    // Over-budget merges are not capped by `max_ops`: the budget is met within a few
-    // evaluations (transitions lock their neighbourhoods, so each takes several).
+    // Over budget, the evaluator merges up to `max_ops` families per evaluation, none next to
+    // another or to a transition still blending, and every one of them begins.
     let reached = reached.unwrap_or_else(|| panic!("never reached: {}", c.body().cut().len()));
     assert!(reached < 40, "reached the budget only at step {reached}");
     assert!(c.body().particle_positions().iter().all(|p| p.is_finite()));
+}
+
+/// Every operation the evaluator plans begins, in the order planned: over many evaluations of a
+/// swinging net, some while transitions are still blending (blend 4 steps, evaluations every 1
+/// or 3), through shrinking and growing budgets, no step fails (a refused operation would be
+/// its error), none is counted as refused, and once within its budget the cut stays within it.
+#[test]
+fn every_planned_operation_begins() {
+    for interval in [1, 3] {
+        let mut c = net(33, 0, default_body_settings());
+        let mass = c.body().total_mass();
+        for budget in [400, 150, 600, 250] {
+            c.set_feedback(Some(FeedbackSettings {
+                budget: ClothBudget::Nodes(budget),
+                interval,
+                max_ops: 24,
+                ..FeedbackSettings::default()
+            }))
+            .unwrap();
+            let mut within = c.body().cut().len() <= budget;
+            for step in 0..90 {
+                c.step(&camera()).unwrap();
+                let len = c.body().cut().len();
+                if within {
+                    assert!(
+                        len <= budget,
+                        "interval {interval}, budget {budget}, step {step}: {len}"
+                    );
+                }
+                within |= len <= budget;
+            }
+            assert!(within, "interval {interval}: budget {budget} never reached");
+        }
+        let s = c.stats();
+        assert_eq!(s.refused, 0);
+        assert!(s.refines > 20 && s.coarses > 20, "{s:?}");
+        assert!(s.evaluations > 100, "{s:?}");
+        assert!((c.body().total_mass() - mass).abs() < 1e-5 * mass);
+        assert!(c.body().particle_positions().iter().all(|p| p.is_finite()));
+    }
 }
 
 /// Bad input gets a clear error and changes nothing.

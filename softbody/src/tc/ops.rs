@@ -34,7 +34,7 @@ use crate::ids::ParticleId;
 use crate::shape;
 use glam::{DVec3, Mat3};
 use std::sync::Arc;
-use treecut::NodeId;
+use treecut::{NodeId, Op};
 
 impl TreeCutSoftBody {
     fn take_transition(
@@ -60,6 +60,54 @@ impl TreeCutSoftBody {
         t.fade_out.clear();
         t.locked.clear();
         t
+    }
+
+    /// Appends to `out` the nodes that beginning `op` now would lock until its transition ends,
+    /// each once: exactly what [`TreeCutSoftBody::begin_refine`] and
+    /// [`TreeCutSoftBody::begin_coarse`] lock. A refine locks the node's children and every
+    /// node whose particle is linked to the node's; a coarse locks the parent, its children and
+    /// every node whose particle is linked to a child from outside the family. Links are the
+    /// induced mesh adjacency, so for an operation that can begin these are its nodes and every
+    /// node of the cut next to the refined node or merged parent (`Hierarchy::adjacent`).
+    ///
+    /// This is the lock rule [`treecut::Evaluator::evaluate_with_locks`] takes, so that every
+    /// operation of a batch it plans begins. Answered for the body as it is now; for an
+    /// operation that could not begin now the answer means nothing (but nothing panics).
+    pub fn would_lock(&self, op: Op, out: &mut Vec<NodeId>) {
+        let h = &*self.hierarchy;
+        if !h.contains(op.node()) {
+            return;
+        }
+        match op {
+            Op::Refine(node) => {
+                out.extend(h.children(node));
+                if let Some(p) = self.particle_of(node) {
+                    out.extend(
+                        self.body
+                            .incident_raw(p.raw())
+                            .iter()
+                            .map(|&(_, q)| self.particle_node[q as usize]),
+                    );
+                }
+            }
+            Op::Coarse(parent) => {
+                out.push(parent);
+                out.extend(h.children(parent));
+                // Each external neighbour once, however many children it is linked to.
+                let start = out.len();
+                for k in h.children(parent) {
+                    let Some(c) = self.particle_of(k) else {
+                        continue;
+                    };
+                    for &(_, o) in self.body.incident_raw(c.raw()) {
+                        let q = self.particle_node[o as usize];
+                        if h.parent(q) != Some(parent) && !out[start..].contains(&q) {
+                            out.push(q);
+                        }
+                    }
+                }
+            }
+        }
     }
 
     /// Begins refining active node `node`: its particle is replaced by its children's, placed by

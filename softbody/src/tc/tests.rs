@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::{GridCloth, ReconstructionMode};
-use treecut::GridSpec;
+use treecut::{GridSpec, Op};
 
 pub(super) fn spec(n: u32) -> GridSpec {
     GridSpec {
@@ -315,6 +315,69 @@ fn refused_operations_change_nothing() {
     assert_eq!(tc.transitions_in_flight(), 0);
     assert!(!tc.cut().is_locked(nb));
     tc.check();
+}
+
+/// `would_lock` answers exactly what beginning an operation locks, and that is the operation's
+/// own nodes plus every active node next to what it changes (mesh adjacency at the node level):
+/// checked on random operations among transitions in flight.
+#[test]
+fn would_lock_is_what_begin_locks() {
+    let n = 17;
+    let mut tc = body(n, 1, true);
+    pin_corners(&mut tc, n);
+    let h = tc.hierarchy_arc().clone();
+    let mut rng = Rng(0x10C5);
+    let mut begun = 0;
+    for step in 0..300 {
+        for _ in 0..6 {
+            let active = tc.cut().active();
+            let node = active[rng.below(active.len())];
+            let op = match h.parent(node) {
+                Some(p) if rng.below(2) == 0 => Op::Coarse(p),
+                _ => Op::Refine(node),
+            };
+            let mut said = Vec::new();
+            tc.would_lock(op, &mut said);
+            said.sort();
+            let result = match op {
+                Op::Refine(n) => tc.begin_refine(n),
+                Op::Coarse(p) => tc.begin_coarse(p),
+            };
+            if result.is_err() {
+                continue;
+            }
+            begun += 1;
+            let t = tc.transitions.last().unwrap();
+            let mut did = t.locked.clone();
+            did.sort();
+            assert_eq!(said, did, "{op:?} at step {step}");
+            // The same set from the hierarchy alone, on the cut before the operation.
+            let mut cut = tc.cut().clone();
+            for &x in &t.locked {
+                cut.unlock(x).unwrap();
+            }
+            match op {
+                Op::Refine(n) => cut.coarse(&h, n).unwrap(),
+                Op::Coarse(p) => cut.refine(&h, p).unwrap(),
+            }
+            let mut expected: Vec<NodeId> = match op {
+                Op::Refine(n) => h.children(n).collect(),
+                Op::Coarse(p) => std::iter::once(p).chain(h.children(p)).collect(),
+            };
+            expected.extend(
+                cut.active()
+                    .iter()
+                    .copied()
+                    .filter(|&a| h.adjacent(a, op.node())),
+            );
+            expected.sort();
+            expected.dedup();
+            assert_eq!(said, expected, "{op:?} at step {step}");
+        }
+        tc.step();
+        tc.check();
+    }
+    assert!(begun > 200, "{begun} operations begun");
 }
 
 #[test]
