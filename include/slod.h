@@ -549,7 +549,8 @@ typedef struct SlodClothStats {
    */
   uint64_t coarses;
   /**
-   * Operations the evaluator proposed that a transition in flight refused (retried later).
+   * Operations the evaluator proposed that the body refused: always 0 (the evaluator plans
+   * around the locks of transitions in flight); kept for ABI stability.
    */
   uint64_t refused;
   /**

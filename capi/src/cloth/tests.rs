@@ -99,7 +99,7 @@ fn node_budget_is_reached_and_held() {
 #[test]
 fn every_planned_operation_begins() {
     for interval in [1, 3] {
-        let mut c = net(33, 0, default_body_settings());
+        let mut c = net(33, 0, TreeCutSettings::default());
         let mass = c.body().total_mass();
         for budget in [400, 150, 600, 250] {
             c.set_feedback(Some(FeedbackSettings {

@@ -27,7 +27,8 @@ pub struct SlodClothStats {
     pub refines: u64,
     /// Coarses begun (by feedback or explicitly).
     pub coarses: u64,
-    /// Operations the evaluator proposed that a transition in flight refused (retried later).
+    /// Operations the evaluator proposed that the body refused: always 0 (the evaluator plans
+    /// around the locks of transitions in flight); kept for ABI stability.
     pub refused: u64,
     /// Operations that undid one on the same node begun within `SLOD_UNDO_WINDOW_STEPS` steps
     /// (flicker).

@@ -326,7 +326,7 @@ fn would_lock_is_what_begin_locks() {
     let mut tc = body(n, 1, true);
     pin_corners(&mut tc, n);
     let h = tc.hierarchy_arc().clone();
-    let mut rng = Rng(0x10C5);
+    let mut rng = Rng::new(0x10C5);
     let mut begun = 0;
     for step in 0..300 {
         for _ in 0..6 {
