@@ -6,6 +6,7 @@
 //!   section 6): a full-resolution reference, feedback runs and static cuts, measured.
 //! - [`crowd`] — the thesis' crowd test (`animation-lod-bone-priority-thesis.txt`, chapter 13).
 //! - [`rig`] — rigs built for the experiments from real ones ([`rig::grown_to`]).
+//! - [`screen`] — what a viewer sees: on-screen error in pixels through a view, and pops.
 //! - [`rng`] — the one seeded generator; [`table`] — aligned plain-text tables.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -14,4 +15,5 @@ pub mod crowd;
 pub mod net;
 pub mod rig;
 pub mod rng;
+pub mod screen;
 pub mod table;

@@ -22,6 +22,10 @@ pub(crate) struct ConfigReport {
     pub(crate) full_nodes: usize,
     /// Rest diagonal (m); errors are relative to it.
     pub(crate) diagonal_m: f32,
+    /// Height of the viewport on-screen errors are measured on (px).
+    pub(crate) measure_height_px: u32,
+    /// Vertical field of view of that view (degrees).
+    pub(crate) fov_y_deg: f32,
     /// Time step (s).
     pub(crate) dt_s: f32,
     /// Solver substeps per step.
@@ -83,6 +87,24 @@ pub(crate) struct RunReport {
     pub(crate) rms_error_mm: f32,
     /// Largest distance in millimetres.
     pub(crate) max_error_mm: f32,
+    /// On-screen error through the 1080-pixel-high measuring view: mean per-frame RMS (px;
+    /// null for the reference).
+    pub(crate) screen_rms_px: Option<f64>,
+    /// 99th percentile over all vertex-frames (px).
+    pub(crate) screen_p99_px: Option<f64>,
+    /// Largest over all vertex-frames (px).
+    pub(crate) screen_max_px: Option<f64>,
+    /// Largest frame-to-frame change of one vertex's on-screen error vector (px).
+    pub(crate) pop_max_px: Option<f64>,
+    /// Mean wall time per step of reconstructing the finest vertices (ms), which a renderer pays
+    /// every frame on top of `ms_per_step` (the full-resolution cloth does not).
+    pub(crate) reconstruct_ms: f64,
+    /// `ms_per_step + reconstruct_ms` for an adaptive run (ms_per_step for the reference).
+    pub(crate) frame_ms: f64,
+    /// Reconstruction's share of `frame_ms`.
+    pub(crate) reconstruct_share: f64,
+    /// Reference ms per step over this run's `frame_ms`: the speed-up a host sees.
+    pub(crate) frame_speedup_vs_reference: f64,
     /// Refines and coarses begun.
     pub(crate) operations: u64,
     /// Operations that undid one on the same node soon after.
@@ -175,6 +197,8 @@ pub(super) fn config_report(
         mass_kg: c.mass,
         full_nodes: r.full_nodes,
         diagonal_m: r.diagonal,
+        measure_height_px: c.measure_view().map_or(0, |v| v.height_px()),
+        fov_y_deg: c.view.fov_y_radians().to_degrees(),
         dt_s: c.body.solver.dt,
         substeps: c.body.solver.substeps,
         iterations: c.body.solver.iterations,
@@ -196,6 +220,10 @@ pub(super) fn run_report(r: &NetRun, report: &NetReport, interval: u32) -> RunRe
         .run(NetRunKind::Reference)
         .map_or(f64::NAN, |x| x.ms_per_step);
     let mm = report.diagonal * 1e3;
+    let frame_ms = match r.kind {
+        NetRunKind::Reference => r.ms_per_step,
+        _ => r.ms_per_step + r.reconstruct_ms_per_step,
+    };
     let settling = match r.kind {
         NetRunKind::TimeBudget { target_ms } => Some(r.settling(target_ms, interval as usize)),
         _ => None,
@@ -216,6 +244,18 @@ pub(super) fn run_report(r: &NetRun, report: &NetReport, interval: u32) -> RunRe
         max_error_fraction: r.error.max,
         rms_error_mm: r.error.rms * mm,
         max_error_mm: r.error.max * mm,
+        screen_rms_px: r.screen.map(|s| s.rms_px),
+        screen_p99_px: r.screen.map(|s| s.p99_px),
+        screen_max_px: r.screen.map(|s| s.max_px),
+        pop_max_px: r.screen.map(|s| s.pop_max_px),
+        reconstruct_ms: r.reconstruct_ms_per_step,
+        frame_ms,
+        reconstruct_share: if frame_ms > 0.0 {
+            (frame_ms - r.ms_per_step) / frame_ms
+        } else {
+            0.0
+        },
+        frame_speedup_vs_reference: reference_ms / frame_ms,
         operations: r.operations,
         undone_operations: r.undone_operations,
         settled_after_steps: settling.and_then(|s| s.settled_at),

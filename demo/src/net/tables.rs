@@ -193,7 +193,12 @@ pub(super) fn render_errors(s: &NetSection) -> String {
             "run",
             "N",
             "ms/step",
+            "+recon",
             "speed-up",
+            "rms px",
+            "p99 px",
+            "max px",
+            "pop px",
             "rms error",
             "max error",
             "rms mm",
@@ -202,12 +207,18 @@ pub(super) fn render_errors(s: &NetSection) -> String {
             "undone",
         ],
     );
+    let px = |v: Option<f64>| v.map_or_else(|| "-".into(), |x| num(x, 2));
     for r in s.runs.iter().filter(|r| r.kind != "reference") {
         t.row([
             r.label.clone(),
             num(r.nodes, 0),
             num(r.ms_per_step, 3),
-            format!("{}x", num(r.speedup_vs_reference, 2)),
+            num(r.reconstruct_ms, 3),
+            format!("{}x", num(r.frame_speedup_vs_reference, 2)),
+            px(r.screen_rms_px),
+            px(r.screen_p99_px),
+            px(r.screen_max_px),
+            px(r.pop_max_px),
             pct(r.rms_error_fraction as f64, 2),
             pct(r.max_error_fraction as f64, 2),
             num(r.rms_error_mm as f64, 1),
@@ -216,9 +227,17 @@ pub(super) fn render_errors(s: &NetSection) -> String {
             r.undone_operations.to_string(),
         ]);
     }
+    t.note(format!(
+        "On screen (px): the reconstructed finest vertices and the reference's at the same step \
+         projected through the net's camera on a {}-pixel-high view ({:.0}° vertical field of \
+         view); rms = mean per-frame RMS over the reference's in-view vertices, p99 and max over \
+         all vertex-frames, pop = largest frame-to-frame jump of one vertex's error vector.",
+        c.measure_height_px, c.fov_y_deg
+    ));
     t.note(
-        "Errors are distances of the reconstructed finest vertices from the reference's at the \
-         same step, over all steps, in % of the rest diagonal.",
+        "+recon: reconstruction per step, which a renderer pays on top of the step; speed-up is \
+         the reference's step over step + reconstruction. World-space columns: distances in % \
+         of the rest diagonal and in mm.",
     );
     t.note(
         "uniform/random: static cuts with the same node count as the strongest compression; the \

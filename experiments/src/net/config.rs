@@ -64,6 +64,12 @@ impl NetConfig {
         })
     }
 
+    /// The view on-screen errors are measured through: the net's camera and field of view on a
+    /// 1080-pixel-high viewport (1920 × 1080), whatever viewport drives the salience.
+    pub fn measure_view(&self) -> Result<View, ClothError> {
+        Ok(self.view.with_viewport(1920, 1080)?)
+    }
+
     /// The grid this configuration simulates.
     pub fn grid(&self) -> GridSpec {
         let spacing = self.width / (self.size.max(2) - 1) as f32;

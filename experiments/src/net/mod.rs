@@ -19,6 +19,8 @@ use slod::cloth::{AdaptiveCloth, ClothBudget, ClothError, FeedbackSettings, comp
 use softbody::{ReconstructionError, TreeCutError};
 use treecut::{Cut, Hierarchy, random_cut, uniform_cut};
 
+use crate::screen::ScreenMeter;
+
 mod config;
 mod report;
 
@@ -61,12 +63,14 @@ pub fn run_net(config: &NetConfig, progress: Progress<'_>) -> Result<NetReport, 
     let mut cloth = make(Cut::finest(&h))?;
     runs.push(simulate(
         &mut cloth,
-        NetRunKind::Reference,
-        "reference".into(),
-        full,
+        RunSpec {
+            kind: NetRunKind::Reference,
+            label: "reference".into(),
+            budget_nodes: full,
+            reference: None,
+            record: Some(&mut reference_frames),
+        },
         config,
-        None,
-        Some(&mut reference_frames),
         progress,
     )?);
 
@@ -80,12 +84,14 @@ pub fn run_net(config: &NetConfig, progress: Progress<'_>) -> Result<NetReport, 
         let label = format!("feedback {:.0}%", c * 100.0);
         runs.push(simulate(
             &mut cloth,
-            NetRunKind::Feedback { compression: c },
-            label,
-            budget,
+            RunSpec {
+                kind: NetRunKind::Feedback { compression: c },
+                label,
+                budget_nodes: budget,
+                reference: Some(&reference_frames),
+                record: None,
+            },
             config,
-            Some(&reference_frames),
-            None,
             progress,
         )?);
     }
@@ -95,12 +101,14 @@ pub fn run_net(config: &NetConfig, progress: Progress<'_>) -> Result<NetReport, 
         let label = format!("uniform {:.0}%", c * 100.0);
         runs.push(simulate(
             &mut cloth,
-            NetRunKind::Uniform { compression: c },
-            label,
-            budget,
+            RunSpec {
+                kind: NetRunKind::Uniform { compression: c },
+                label,
+                budget_nodes: budget,
+                reference: Some(&reference_frames),
+                record: None,
+            },
             config,
-            Some(&reference_frames),
-            None,
             progress,
         )?);
         let mut cloth =
@@ -108,12 +116,14 @@ pub fn run_net(config: &NetConfig, progress: Progress<'_>) -> Result<NetReport, 
         let label = format!("random {:.0}%", c * 100.0);
         runs.push(simulate(
             &mut cloth,
-            NetRunKind::Random { compression: c },
-            label,
-            budget,
+            RunSpec {
+                kind: NetRunKind::Random { compression: c },
+                label,
+                budget_nodes: budget,
+                reference: Some(&reference_frames),
+                record: None,
+            },
             config,
-            Some(&reference_frames),
-            None,
             progress,
         )?);
     }
@@ -126,12 +136,14 @@ pub fn run_net(config: &NetConfig, progress: Progress<'_>) -> Result<NetReport, 
         let label = format!("time budget {ms:.2} ms");
         runs.push(simulate(
             &mut cloth,
-            NetRunKind::TimeBudget { target_ms: ms },
-            label,
-            full,
+            RunSpec {
+                kind: NetRunKind::TimeBudget { target_ms: ms },
+                label,
+                budget_nodes: full,
+                reference: Some(&reference_frames),
+                record: None,
+            },
             config,
-            Some(&reference_frames),
-            None,
             progress,
         )?);
     }
@@ -153,17 +165,32 @@ fn nodes_for(compression: f32, full: usize) -> Result<usize, ClothError> {
     Ok(compression_nodes(compression, full))
 }
 
-#[allow(clippy::too_many_arguments)]
-fn simulate(
-    cloth: &mut AdaptiveCloth,
+/// One run to simulate: what it is, and what it is measured against or recorded for.
+struct RunSpec<'a> {
     kind: NetRunKind,
     label: String,
     budget_nodes: usize,
+    /// The reference run's vertices, step-major, to measure against.
+    reference: Option<&'a [Vec3]>,
+    /// Where to record this run's vertices (the reference run does).
+    record: Option<&'a mut [Vec3]>,
+}
+
+fn simulate(
+    cloth: &mut AdaptiveCloth,
+    spec: RunSpec<'_>,
     config: &NetConfig,
-    reference: Option<&[Vec3]>,
-    mut record: Option<&mut [Vec3]>,
     progress: Progress<'_>,
 ) -> Result<NetRun, ClothError> {
+    let RunSpec {
+        kind,
+        label,
+        budget_nodes,
+        reference,
+        mut record,
+    } = spec;
+    let mut screen = ScreenMeter::new(config.measure_view()?);
+    let mut reconstruct_seconds = 0f64;
     let full = cloth.hierarchy().vertex_count();
     let diagonal = cloth.hierarchy().rest_diagonal() as f64;
     let mut vertices = vec![Vec3::ZERO; full];
@@ -186,12 +213,15 @@ fn simulate(
         nodes += cloth.node_count() as f64;
         links += cloth.link_count() as f64;
         interp += cloth.interpolations() as f64;
+        let t = Instant::now();
         cloth.reconstruct(&mut vertices)?;
+        reconstruct_seconds += t.elapsed().as_secs_f64();
         let frame = step as usize * full..(step as usize + 1) * full;
         if let Some(rec) = record.as_deref_mut() {
             rec[frame.clone()].copy_from_slice(&vertices);
         }
         if let Some(r) = reference {
+            screen.frame(&vertices, &r[frame.clone()]);
             for (a, b) in vertices.iter().zip(&r[frame]) {
                 let d = a.distance(*b) as f64;
                 sum_sq += d * d;
@@ -240,6 +270,8 @@ fn simulate(
             max: (max_d / diagonal) as f32,
         },
         max_error_step: max_step,
+        screen: reference.map(|_| screen.finish()),
+        reconstruct_ms_per_step: 1e3 * reconstruct_seconds / steps,
         operations: stats.refines + stats.coarses,
         undone_operations: stats.undone_ops,
         snapshots,
@@ -276,6 +308,17 @@ mod tests {
         );
         assert!(fb.error.rms < 0.02, "{summary}");
         assert!(fb.error.max < 0.05, "{summary}");
+        // On screen (1080-px-high view) the same ordering, for the mean and the tail.
+        let (f, u, r) = (
+            fb.screen.unwrap(),
+            uniform.screen.unwrap(),
+            random.screen.unwrap(),
+        );
+        for other in [u, r] {
+            assert!(f.rms_px < other.rms_px, "{f:?} vs {other:?}");
+            assert!(f.p99_px < other.p99_px, "{f:?} vs {other:?}");
+        }
+        assert!(reference.screen.is_none());
         for other in [uniform, random] {
             assert!(fb.error.rms < other.error.rms, "{summary}");
             assert!(fb.error.max < other.error.max, "{summary}");

@@ -5,6 +5,7 @@ use glam::Vec3;
 use softbody::{DrawLink, ReconstructionError};
 
 use super::NetRunKind;
+use crate::screen::ScreenError;
 
 /// The state of a run after some step, for pictures.
 #[derive(Clone, Debug, PartialEq)]
@@ -43,6 +44,12 @@ pub struct NetRun {
     pub error: ReconstructionError,
     /// The step (1-based) at which the maximum error occurred.
     pub max_error_step: u32,
+    /// The on-screen error through [`super::NetConfig::measure_view`] (`None` for the reference
+    /// itself).
+    pub screen: Option<ScreenError>,
+    /// Mean wall time per step of reconstructing the finest vertices (what a renderer pays every
+    /// frame; not part of `ms_per_step`).
+    pub reconstruct_ms_per_step: f64,
     /// Refines and coarses begun.
     pub operations: u64,
     /// Operations that undid one on the same node within 30 steps.

@@ -176,6 +176,27 @@ struct Scratch {
     stamp_counter: u32,
 }
 
+/// The rotations the last reconstruction found, per hierarchy node: the warm start of the next
+/// one. Separate from the simulation's rotations, so reading the surface never changes what is
+/// simulated. Behind a mutex because reconstruction takes `&self` (hosts read a `const` world,
+/// possibly from several threads): a reader that finds it busy (or poisoned) starts from the
+/// simulation's rotations instead, which converges to the same tolerance, only more slowly.
+#[derive(Debug, Default)]
+struct RotationCache(std::sync::Mutex<Vec<Quat>>);
+
+impl RotationCache {
+    fn new(nodes: usize) -> Self {
+        RotationCache(std::sync::Mutex::new(vec![Quat::IDENTITY; nodes]))
+    }
+}
+
+impl Clone for RotationCache {
+    fn clone(&self) -> Self {
+        let v = self.0.lock().map(|v| v.clone()).unwrap_or_default();
+        RotationCache(std::sync::Mutex::new(v))
+    }
+}
+
 /// A soft body whose simulation nodes follow a TreeCut (see the crate docs, *TreeCut-SoftBody*).
 #[derive(Clone, Debug)]
 pub struct TreeCutSoftBody {
@@ -187,6 +208,8 @@ pub struct TreeCutSoftBody {
     node_particle: Vec<u32>,
     /// Last shape-matching rotation per hierarchy node (warm start; identity until computed).
     rotation: Vec<Quat>,
+    /// The reconstruction's own warm start (see [`RotationCache`]).
+    recon_rotation: RotationCache,
     transitions: Vec<Transition>,
     spare: Vec<Transition>,
     pins: pins::Pins,
@@ -258,6 +281,7 @@ impl TreeCutSoftBody {
             particle_node,
             node_particle,
             rotation: vec![Quat::IDENTITY; n_nodes],
+            recon_rotation: RotationCache::new(n_nodes),
             transitions: Vec::new(),
             spare: Vec::new(),
             pins: pins::Pins::new(n_nodes, n_vertices),

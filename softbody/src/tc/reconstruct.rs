@@ -73,12 +73,17 @@ pub fn reconstruction_error(
 }
 
 impl TreeCutSoftBody {
-    /// Shape-matching rotation of every particle, warm-started from the simulation's per-node
-    /// rotations. Reads only: what the host reconstructs never changes what is simulated.
+    /// Shape-matching rotation of every particle, warm-started from the last reconstruction's
+    /// rotations (its own cache, never the simulation's): what the host reconstructs never
+    /// changes what is simulated.
     fn particle_rotations(&self, out: &mut Vec<Quat>) {
         let h = &*self.hierarchy;
         let pos = self.body.positions();
         out.clear();
+        let mut cache = self.recon_rotation.0.try_lock().ok();
+        if let Some(c) = cache.as_mut() {
+            c.resize(h.len(), Quat::IDENTITY);
+        }
         for (p, &node) in self.particle_node.iter().enumerate() {
             let x_p = pos[p].truncate();
             let rest_p = h.rest_position(node);
@@ -91,7 +96,13 @@ impl TreeCutSoftBody {
                     h.rest_position(q_node) - rest_p,
                 );
             }
-            out.push(shape::rotation_of(&cov, self.rotation[node.index()]));
+            let i = node.index();
+            let start = cache.as_ref().map_or(self.rotation[i], |c| c[i]);
+            let r = shape::rotation_of(&cov, start);
+            if let Some(c) = cache.as_mut() {
+                c[i] = r;
+            }
+            out.push(r);
         }
     }
 

@@ -1,0 +1,172 @@
+//! What a viewer sees: the on-screen error of a reconstructed surface against a
+//! full-resolution reference, through a [`View`], per frame.
+//!
+//! Per frame, every reference vertex in view and its reconstructed counterpart are projected;
+//! the per-vertex distance in pixels is the error a viewer could see. A run reports the mean of
+//! the per-frame RMS, the 99th percentile over all vertex-frames and the maximum, and the
+//! largest *pop*: the largest frame-to-frame change of one vertex's on-screen error vector, so a
+//! refine or an end-coarse that jumps shows even when the averages are small.
+
+use glam::{Vec2, Vec3};
+use salience::View;
+
+/// On-screen error of one run (pixels).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ScreenError {
+    /// Mean over frames of the per-frame RMS over the reference's in-view vertices.
+    pub rms_px: f64,
+    /// 99th percentile over all vertex-frames.
+    pub p99_px: f64,
+    /// Largest over all vertex-frames.
+    pub max_px: f64,
+    /// Largest frame-to-frame change of one vertex's on-screen error vector.
+    pub pop_max_px: f64,
+}
+
+/// Accumulates [`ScreenError`] frame by frame.
+#[derive(Clone, Debug)]
+pub struct ScreenMeter {
+    view: View,
+    frames: u64,
+    rms_sum: f64,
+    samples: Vec<f32>,
+    max: f32,
+    pop_max: f32,
+    previous: Vec<Option<Vec2>>,
+}
+
+impl ScreenMeter {
+    /// A meter seeing through `view`.
+    pub fn new(view: View) -> ScreenMeter {
+        ScreenMeter {
+            view,
+            frames: 0,
+            rms_sum: 0.0,
+            samples: Vec::new(),
+            max: 0.0,
+            pop_max: 0.0,
+            previous: Vec::new(),
+        }
+    }
+
+    /// The view measured through.
+    pub fn view(&self) -> &View {
+        &self.view
+    }
+
+    /// Adds one frame: `reconstructed[i]` against `reference[i]` (same length).
+    pub fn frame(&mut self, reconstructed: &[Vec3], reference: &[Vec3]) {
+        assert_eq!(
+            reconstructed.len(),
+            reference.len(),
+            "one vertex per vertex"
+        );
+        self.previous.resize(reference.len(), None);
+        let (mut sum_sq, mut count) = (0f64, 0u64);
+        for (i, (a, r)) in reconstructed.iter().zip(reference).enumerate() {
+            let error = self.error_px(*a, *r);
+            if let (Some(e), Some(p)) = (error, self.previous[i]) {
+                self.pop_max = self.pop_max.max((e - p).length());
+            }
+            self.previous[i] = error;
+            if let Some(e) = error {
+                let d = e.length();
+                sum_sq += (d as f64) * (d as f64);
+                count += 1;
+                self.samples.push(d);
+                self.max = self.max.max(d);
+            }
+        }
+        if count > 0 {
+            self.rms_sum += (sum_sq / count as f64).sqrt();
+        }
+        self.frames += 1;
+    }
+
+    /// The on-screen error vector of `a` against reference `r`, if `r` is in view. A
+    /// reconstructed point behind the near plane is as far off as its world distance at the
+    /// reference's scale.
+    fn error_px(&self, a: Vec3, r: Vec3) -> Option<Vec2> {
+        if !self.view.is_in_view(r, 0.0) {
+            return None;
+        }
+        let pr = self.view.project(r)?;
+        Some(match self.view.project(a) {
+            Some(pa) => pa - pr,
+            None => Vec2::new(a.distance(r) * self.view.pixels_per_unit(r), 0.0),
+        })
+    }
+
+    /// The run's figures so far.
+    pub fn finish(&mut self) -> ScreenError {
+        let p99 = if self.samples.is_empty() {
+            0.0
+        } else {
+            let k = ((self.samples.len() - 1) as f64 * 0.99).round() as usize;
+            *self.samples.select_nth_unstable_by(k, f32::total_cmp).1
+        };
+        ScreenError {
+            rms_px: if self.frames > 0 {
+                self.rms_sum / self.frames as f64
+            } else {
+                0.0
+            },
+            p99_px: p99 as f64,
+            max_px: self.max as f64,
+            pop_max_px: self.pop_max as f64,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn view() -> View {
+        View::look_at(
+            Vec3::new(0.0, 0.0, 5.0),
+            Vec3::ZERO,
+            Vec3::Y,
+            1.0,
+            1920,
+            1080,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn identical_surfaces_have_zero_error_and_an_offset_has_its_pixels() {
+        let reference = vec![Vec3::ZERO, Vec3::X * 0.5, Vec3::new(0.0, 0.0, 20.0)];
+        let mut m = ScreenMeter::new(view());
+        m.frame(&reference, &reference);
+        assert_eq!(m.finish(), ScreenError::default());
+        // A 1 cm offset at 5 m: focal/5 px per metre × 0.01 m.
+        let v = view();
+        let px = v.pixels_per_unit(Vec3::ZERO) * 0.01;
+        let moved: Vec<Vec3> = reference.iter().map(|p| *p + Vec3::Y * 0.01).collect();
+        let mut m = ScreenMeter::new(v);
+        m.frame(&moved, &reference);
+        let e = m.finish();
+        assert!(
+            (e.max_px - px as f64).abs() < 0.05 * px as f64,
+            "{e:?} vs {px}"
+        );
+        // The vertex behind the camera is not counted.
+        assert!(e.rms_px <= e.max_px && e.p99_px <= e.max_px);
+    }
+
+    #[test]
+    fn a_jump_is_a_pop_and_a_steady_offset_is_not() {
+        let reference = vec![Vec3::ZERO; 4];
+        let steady: Vec<Vec3> = reference.iter().map(|p| *p + Vec3::X * 0.02).collect();
+        let mut m = ScreenMeter::new(view());
+        for _ in 0..5 {
+            m.frame(&steady, &reference);
+        }
+        let calm = m.finish();
+        assert!(calm.pop_max_px < 1e-3, "{calm:?}");
+        m.frame(&reference, &reference); // the offset vanishes at once
+        let jumped = m.finish();
+        assert!((jumped.pop_max_px - calm.max_px).abs() < 1e-3, "{jumped:?}");
+    }
+}
