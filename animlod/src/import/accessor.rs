@@ -164,7 +164,28 @@ impl<'a> Reader<'a> {
                 .byte_offset
                 .map_or(Some(0), |o| to_usize(o.0))
                 .ok_or_else(|| err("bad offset".into()))?;
+            let view_offset = self
+                .root
+                .buffer_views
+                .get(view.value())
+                .and_then(|v| v.byte_offset)
+                .map_or(0, |o| o.0);
             let (bytes, stride) = self.view_bytes(view.value(), index)?;
+            // glTF 2.0 (3.6.2.4, data alignment): the accessor's offset within its buffer view
+            // and the view's offset within its buffer are multiples of the component size, and
+            // so is the stride; a misaligned float read would straddle two values.
+            if offset % cs != 0 || view_offset % cs as u64 != 0 {
+                return Err(err(format!(
+                    "byte offset {offset} (buffer view at {view_offset}) is not a multiple of the \
+                     component size {cs}"
+                )));
+            }
+            if stride.is_some_and(|s| s % cs != 0) {
+                return Err(err(format!(
+                    "byte stride {} is not a multiple of the component size {cs}",
+                    stride.unwrap_or(0)
+                )));
+            }
             let stride = stride.unwrap_or(elem);
             if stride < elem {
                 return Err(err(format!(

@@ -322,11 +322,23 @@ fn read_channels(
         let times = reader.read(sampler.input.value(), Type::Scalar, Components::Float)?;
         let keys = match prop {
             crate::clip::Property::Rotation => {
-                let v = reader.read(
-                    sampler.output.value(),
-                    Type::Vec4,
-                    Components::FloatOrNormalized,
-                )?;
+                let output = sampler.output.value();
+                let v = reader.read(output, Type::Vec4, Components::FloatOrNormalized)?;
+                // A rotation key must be a finite, non-zero quaternion whose squared length does
+                // not overflow (a component near 1.8e19 would make normalising it non-finite);
+                // cubic-spline tangents must be finite in the same sense.
+                let cubic = interpolation == Interpolation::CubicSpline;
+                for (k, c) in v.chunks_exact(4).enumerate() {
+                    let q = Quat::from_xyzw(c[0], c[1], c[2], c[3]);
+                    let l2 = q.length_squared();
+                    let value = !cubic || k % 3 == 1;
+                    if !l2.is_finite() || (value && l2 < 1e-12) {
+                        return Err(ImportError::Accessor {
+                            index: output,
+                            reason: format!("rotation key {k} ({q}) is not a usable rotation"),
+                        });
+                    }
+                }
                 Keys::Rotation(
                     v.chunks_exact(4)
                         .map(|c| Quat::from_xyzw(c[0], c[1], c[2], c[3]))

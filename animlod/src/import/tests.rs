@@ -557,6 +557,131 @@ impl Rng {
     }
 }
 
+/// Any rig that loads yields finite bounds and finite model matrices at every time of every
+/// clip (sampled at 17 times including both ends, through a crowd at full detail).
+fn assert_finite_everywhere(rig: &Rig, ctx: &str) {
+    let (centre, radius) = rig.bounds();
+    assert!(
+        centre.is_finite() && radius.is_finite(),
+        "{ctx}: bounds {centre} {radius}"
+    );
+    let rig = std::sync::Arc::new(rig.clone());
+    for (c, clip) in rig.clips().iter().enumerate() {
+        let mut crowd = crate::Crowd::new(rig.clone());
+        let id = crowd
+            .add_character(Vec3::ZERO, crate::ClipId::new(c))
+            .unwrap();
+        let view =
+            salience::View::look_at(Vec3::new(0.0, 1.0, 5.0), Vec3::ZERO, Vec3::Y, 1.0, 640, 480)
+                .unwrap();
+        let dt = clip.duration().max(1e-3) / 16.0;
+        for k in 0..17 {
+            if k > 0 {
+                crowd.advance(dt, &view).unwrap();
+            } else {
+                crowd.advance(0.0, &view).unwrap();
+            }
+            let m = crowd.model_matrices(id).unwrap();
+            assert!(
+                m.iter().all(|m| m.is_finite()),
+                "{ctx}: clip {c} at step {k}: non-finite model matrix"
+            );
+        }
+    }
+}
+
+/// Single-byte flips of every real rig (several per rig): whatever loads is finite everywhere.
+#[test]
+fn byte_flipped_rigs_that_load_are_finite_everywhere() {
+    let mut loaded = 0;
+    for (name, ..) in RIGS {
+        let bytes = read(name);
+        assert_finite_everywhere(&Rig::from_gltf_slice(&bytes, None).unwrap(), name);
+        let mut rng = Rng::new(0xF11F ^ bytes.len() as u64);
+        let tries = if bytes.len() > 1_000_000 { 8 } else { 40 };
+        for i in 0..tries {
+            let mut copy = bytes.clone();
+            let at = rng.next() as usize % copy.len();
+            copy[at] ^= 1 << (rng.next() % 8);
+            match Rig::from_gltf_slice(&copy, None) {
+                Err(ImportError::Panicked(m)) => panic!("{name} flip {i}: panicked: {m}"),
+                Err(_) => {}
+                Ok(rig) => {
+                    loaded += 1;
+                    assert_finite_everywhere(&rig, &format!("{name} flip {i} at {at}"));
+                }
+            }
+        }
+    }
+    assert!(loaded > 0, "some flips must still load");
+}
+
+/// An accessor whose byte offset is not a multiple of its component size, and a rotation key
+/// whose squared length overflows, are refused with an error naming the accessor.
+#[test]
+fn misaligned_accessors_and_overflowing_rotations_are_refused() {
+    let bytes = read("Godot_PlatformerRobot.glb");
+    let (json, bin) = super::container::split(&bytes).unwrap();
+    let doc: Value = serde_json::from_slice(json).unwrap();
+    let rebuild = |doc: &Value, bin: &[u8]| {
+        let mut j = serde_json::to_vec(doc).unwrap();
+        while j.len() % 4 != 0 {
+            j.push(b' ');
+        }
+        let mut out = Vec::new();
+        out.extend_from_slice(b"glTF");
+        out.extend_from_slice(&2u32.to_le_bytes());
+        out.extend_from_slice(&((12 + 8 + j.len() + 8 + bin.len()) as u32).to_le_bytes());
+        out.extend_from_slice(&(j.len() as u32).to_le_bytes());
+        out.extend_from_slice(&0x4E4F534Au32.to_le_bytes());
+        out.extend_from_slice(&j);
+        out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+        out.extend_from_slice(&0x004E4942u32.to_le_bytes());
+        out.extend_from_slice(bin);
+        out
+    };
+    let bin = bin.unwrap();
+    assert!(Rig::from_gltf_slice(&rebuild(&doc, bin), None).is_ok());
+    // The rotation output accessor of the first rotation channel.
+    let anim = &doc["animations"][0];
+    let channel = anim["channels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["target"]["path"] == "rotation")
+        .unwrap();
+    let sampler = channel["sampler"].as_u64().unwrap() as usize;
+    let acc = anim["samplers"][sampler]["output"].as_u64().unwrap() as usize;
+    // Misaligned by 2 bytes (and one element shorter, so it still fits).
+    let mut d = doc.clone();
+    let off = d["accessors"][acc]["byteOffset"].as_u64().unwrap_or(0);
+    d["accessors"][acc]["byteOffset"] = json!(off + 2);
+    let n = d["accessors"][acc]["count"].as_u64().unwrap();
+    d["accessors"][acc]["count"] = json!(n - 1);
+    match Rig::from_gltf_slice(&rebuild(&d, bin), None) {
+        Err(ImportError::Accessor { index, reason }) => {
+            assert_eq!(index, acc);
+            assert!(
+                reason.contains("multiple of the component size"),
+                "{reason}"
+            );
+        }
+        other => panic!("misaligned accessor: {other:?}"),
+    }
+    // A key component of 2e19: its squared length overflows f32.
+    let view = doc["accessors"][acc]["bufferView"].as_u64().unwrap() as usize;
+    let at = doc["bufferViews"][view]["byteOffset"].as_u64().unwrap_or(0) as usize + off as usize;
+    let mut b = bin.to_vec();
+    b[at..at + 4].copy_from_slice(&2.0e19f32.to_le_bytes());
+    match Rig::from_gltf_slice(&rebuild(&doc, &b), None) {
+        Err(ImportError::Accessor { index, reason }) => {
+            assert_eq!(index, acc);
+            assert!(reason.contains("rotation key 0"), "{reason}");
+        }
+        other => panic!("overflowing rotation: {other:?}"),
+    }
+}
+
 #[test]
 fn truncated_copies_fail_cleanly() {
     for (name, ..) in RIGS {
@@ -601,7 +726,10 @@ fn corrupted_copies_never_panic() {
             match Rig::from_gltf_slice(&copy, None) {
                 Err(ImportError::Panicked(m)) => panic!("{name} try {i}: panicked: {m}"),
                 Err(_) => outcomes[1] += 1,
-                Ok(_) => outcomes[0] += 1,
+                Ok(rig) => {
+                    outcomes[0] += 1;
+                    assert_finite_everywhere(&rig, &format!("{name} try {i}"));
+                }
             }
         }
     }
