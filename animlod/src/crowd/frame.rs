@@ -1,0 +1,327 @@
+//! The frame: [`Crowd::advance`] samples, holds and concatenates every character under the
+//! LOD mode (the scheduler of `animation-lod-bone-priority-thesis.txt`, chapters 11–13, and
+//! the budget and error-bound modes beyond it).
+
+use glam::{Affine3A, Mat4};
+use salience::View;
+
+use super::*;
+
+/// Model-space concatenation with skipping: a bone is recomputed iff it or an ancestor changed
+/// (`mask`); returns how many were. Branch-free flag propagation and compaction into `list`
+/// first (the changed set is data-dependent, so a branch per bone would mispredict often), then
+/// one pass over the changed bones. `dirty` has one extra, always-zero slot that roots point at.
+#[inline]
+fn concat_changed(
+    parents: &[u32],
+    sentinel_parents: &[u32],
+    mask: &[u8],
+    dirty: &mut [u8],
+    list: &mut [u32],
+    locals: &[Affine3A],
+    models: &mut [Mat4],
+) -> u32 {
+    let n = parents.len();
+    let (mask, dirty, list, sp) = (
+        &mask[..n],
+        &mut dirty[..n + 1],
+        &mut list[..n],
+        &sentinel_parents[..n],
+    );
+    dirty[n] = 0;
+    let mut k = 0usize;
+    for b in 0..n {
+        let d = mask[b] | dirty[sp[b] as usize];
+        dirty[b] = d;
+        list[k] = b as u32;
+        k += d as usize;
+    }
+    for &b in &list[..k] {
+        let b = b as usize;
+        let p = parents[b];
+        models[b] = if p == NO_PARENT {
+            Mat4::from(locals[b])
+        } else {
+            concat(&models[p as usize], &locals[b])
+        };
+    }
+    k as u32
+}
+
+/// The row of a per-segment table (`slots` wide) for a character's last playback step: the
+/// row of the segment playing now, or, when the step crossed key boundaries, the element-wise
+/// maximum over every segment it touched (in `buf`). Without this, motion in the part of a step
+/// that fell in the previous segment would be missed whenever the new segment is quiet.
+pub(super) fn step_row<'a>(
+    table: &'a [f32],
+    slots: usize,
+    segments: usize,
+    c: &Character,
+    buf: &'a mut Vec<f32>,
+) -> &'a [f32] {
+    let (a, b) = (c.prev_segment as usize, c.segment as usize);
+    if a == b && !c.wrapped {
+        return &table[b * slots..(b + 1) * slots];
+    }
+    buf.clear();
+    buf.extend_from_slice(&table[b * slots..(b + 1) * slots]);
+    let mut k = a;
+    for _ in 0..segments {
+        if k == b && !(a == b && c.wrapped) {
+            break;
+        }
+        for (o, &x) in buf.iter_mut().zip(&table[k * slots..(k + 1) * slots]) {
+            *o = o.max(x);
+        }
+        k = (k + 1) % segments;
+        if k == b {
+            break;
+        }
+    }
+    buf
+}
+
+/// Full-detail model-space pass over the bones that move in this clip (a precomputed list, so
+/// no per-bone flag tests).
+#[inline]
+fn concat_moving(parents: &[u32], moving: &[u32], locals: &[Affine3A], models: &mut [Mat4]) {
+    for &b in moving {
+        let b = b as usize;
+        let p = parents[b];
+        models[b] = if p == NO_PARENT {
+            Mat4::from(locals[b])
+        } else {
+            concat(&models[p as usize], &locals[b])
+        };
+    }
+}
+
+impl Crowd {
+    /// Evaluates a character's full pose at its current time and stamps every bone as updated.
+    pub(super) fn evaluate_full(&mut self, d: usize) {
+        let span = self.span(d);
+        let clip = &self.rig.clips()[self.chars[d].clip.index()];
+        let seg = clip.sub_priorities().segment_at(self.chars[d].time) as u32;
+        let c = &mut self.chars[d];
+        (c.segment, c.prev_segment, c.wrapped) = (seg, seg, false);
+        let c = *c;
+        let locals = &mut self.locals[span.clone()];
+        let s = &mut self.scratch;
+        clip.sample_locals(c.time, &mut s.cursors, &mut s.trs, locals);
+        self.rig
+            .skeleton()
+            .model_matrices(locals, &mut self.models[span.clone()]);
+        self.last_update[span.clone()].fill(c.clock);
+        self.drift[span].fill(0.0);
+    }
+
+    /// Advances every character by `dt` seconds (finite, ≥ 0) and updates their poses under the
+    /// current LOD mode, as seen through `view` (distances, projected sizes and visibility are
+    /// measured in it this frame; the crowd keeps no copy). Refused (state unchanged) for a bad
+    /// `dt`.
+    pub fn advance(&mut self, dt: f32, view: &View) -> Result<FrameStats, CrowdError> {
+        if !(dt.is_finite() && dt >= 0.0) {
+            return Err(invalid("dt", "must be finite and non-negative"));
+        }
+        let (center, radius) = self.rig.bounds();
+        let lod = self.lod;
+        let (rig, stride) = (&self.rig, self.stride);
+        for (d, c) in self.chars.iter_mut().enumerate() {
+            let clip = &rig.clips()[c.clip.index()];
+            let step = dt * c.speed;
+            let before = c.time;
+            c.time = clip.wrap_time(c.time + step);
+            c.wrapped = c.time < before;
+            c.prev_segment = c.segment;
+            c.segment = clip.sub_priorities().segment_at(c.time) as u32;
+            c.clock += step;
+            if c.clock > CLOCK_REBASE {
+                let shift = 0.5 * CLOCK_REBASE;
+                c.clock -= shift;
+                self.last_update[d * stride..(d + 1) * stride]
+                    .iter_mut()
+                    .for_each(|l| *l -= shift);
+            }
+            c.step = step;
+            let world = c.position + center;
+            c.size_px = view.projected_radius_px(world, radius);
+            c.near_ppu = view.max_pixels_per_unit(world, radius);
+            let visible = view.sphere_in_view(world, radius);
+            c.omega = match lod {
+                LodMode::Off | LodMode::Budget { .. } | LodMode::ErrorBound { .. } => 1.0,
+                LodMode::Ratio(o) => o,
+                LodMode::Range { min, max } => {
+                    if visible {
+                        omega_from_distance(view.distance(world), min, max)
+                    } else {
+                        0.0
+                    }
+                }
+                LodMode::PixelSize {
+                    full_detail_px,
+                    freeze_below_px,
+                } => omega_from_pixels(c.size_px, full_detail_px, freeze_below_px),
+            };
+        }
+        let budget = match lod {
+            LodMode::Budget {
+                bone_updates_per_frame,
+            } => Some(self.budget_cut(bone_updates_per_frame)),
+            _ => None,
+        };
+        let mut stats = FrameStats::default();
+        let mut partial_left = budget.map_or(0, |b| b.1);
+        // Rotate the starting character each frame so that no character is always first to the
+        // budget's last, partially admitted score bin.
+        let len = self.chars.len();
+        let start = if len > 0 {
+            (self.frame % len as u64) as usize
+        } else {
+            0
+        };
+        self.frame = self.frame.wrapping_add(1);
+        let mut d = start;
+        for _ in 0..len {
+            stats += self.advance_one(d, budget.map(|b| b.0), &mut partial_left);
+            d += 1;
+            if d == len {
+                d = 0;
+            }
+        }
+        Ok(stats)
+    }
+
+    fn advance_one(
+        &mut self,
+        d: usize,
+        budget: Option<usize>,
+        partial_left: &mut u32,
+    ) -> FrameStats {
+        let n = self.bones;
+        let span = self.span(d);
+        let c = self.chars[d];
+        let rig = &*self.rig;
+        let clip = &rig.clips()[c.clip.index()];
+        let parents = rig.skeleton().parents_raw();
+        let animated = clip.animated.len() as u64;
+        let mut st = FrameStats {
+            characters: 1,
+            bones_constant: n as u64 - animated,
+            ..FrameStats::default()
+        };
+        let locals = &mut self.locals[span.clone()];
+        let models = &mut self.models[span.clone()];
+        let last = &mut self.last_update[span.clone()];
+        let drift = &mut self.drift[span];
+        let s = &mut self.scratch;
+        let error_bound = match self.lod {
+            LodMode::ErrorBound { max_error_px } => Some(max_error_px),
+            _ => None,
+        };
+        let slots = clip.animated.len();
+        let mut full = budget.is_none() && error_bound.is_none() && c.omega >= 1.0;
+        if budget.is_none() && error_bound.is_none() && c.omega <= 0.0 {
+            st.bones_held = animated;
+            st.characters_frozen = 1;
+            return st;
+        }
+        let mut count = slots;
+        if !full {
+            let sub = clip.sub_priorities();
+            let go = &mut s.go[..slots];
+            let last = &mut last[..slots];
+            count = match budget {
+                None if error_bound.is_some() => {
+                    let rates = step_row(&sub.hold_max, slots, sub.segment_count(), &c, &mut s.row);
+                    let tol = error_bound.unwrap_or(f32::INFINITY);
+                    schedule_error(
+                        rates,
+                        c.step,
+                        c.near_ppu,
+                        tol,
+                        &mut drift[..slots],
+                        c.clock,
+                        last,
+                        go,
+                    )
+                }
+                None => {
+                    let row = step_row(
+                        &self.tables[c.clip.index()],
+                        slots,
+                        sub.segment_count(),
+                        &c,
+                        &mut s.row,
+                    );
+                    schedule(row, c.omega, &self.params, c.clock, last, go)
+                }
+                Some(cut) => {
+                    // Drifts and bins were updated by `budget_cut` this frame.
+                    let bins = &s.bins[d * self.stride..d * self.stride + slots];
+                    let mut count = 0;
+                    for (((g, l), e), &bin) in go
+                        .iter_mut()
+                        .zip(last.iter_mut())
+                        .zip(drift[..slots].iter_mut())
+                        .zip(bins)
+                    {
+                        let bin = bin as usize;
+                        let partial = bin == cut && *partial_left > 0;
+                        let update = bin > cut || partial;
+                        *partial_left -= partial as u32;
+                        *l = if update { c.clock } else { *l };
+                        *e = if update { 0.0 } else { *e };
+                        *g = update as u8;
+                        count += update as u32;
+                    }
+                    count
+                }
+            } as usize;
+            if count == 0 {
+                st.bones_held = animated;
+                st.characters_frozen = 1;
+                return st;
+            }
+            // When most bones are due anyway, interpolating all of them through the contiguous
+            // block path costs less than picking them out one by one. Not in budget mode, whose
+            // count must stay within the budget.
+            if budget.is_none() && 2 * count >= slots {
+                full = true;
+                count = slots;
+            }
+        }
+        st.bones_interpolated = count as u64;
+        st.bones_held = animated - count as u64;
+        s.trs.prepare(clip);
+        clip.locate_all(c.time, &mut s.cursors);
+        if full {
+            clip.sample(&s.cursors, &mut s.trs);
+            clip.compose(&s.trs, locals);
+            last[..slots].fill(c.clock);
+            drift[..slots].fill(0.0);
+            concat_moving(parents, &clip.moving, locals, models);
+            st.bones_concatenated = clip.moving.len() as u64;
+            return st;
+        }
+        // Branch-free: the update pattern is data-dependent.
+        s.mask.fill(0);
+        let mut k = 0usize;
+        for (i, (&b, &g)) in clip.animated.iter().zip(&s.go[..slots]).enumerate() {
+            s.mask[b as usize] = g;
+            s.updated[k] = i as u32;
+            k += g as usize;
+        }
+        clip.sample_slots(&s.cursors, &s.updated[..k], &mut s.trs, locals);
+        let sentinel = rig.skeleton().parents_sentinel();
+        st.bones_concatenated = concat_changed(
+            parents,
+            sentinel,
+            &s.mask,
+            &mut s.dirty,
+            &mut s.list,
+            locals,
+            models,
+        ) as u64;
+        st
+    }
+}
