@@ -12,6 +12,8 @@
 
 use std::sync::Arc;
 
+use slod_core::{Arena, Generations, Handle};
+
 use glam::{Affine3A, Mat4, Vec3};
 
 use crate::clip::{Clip, Cursor, TrsScratch};
@@ -64,13 +66,6 @@ impl std::ops::AddAssign for FrameStats {
         self.bones_constant += o.bones_constant;
         self.bones_concatenated += o.bones_concatenated;
     }
-}
-
-#[derive(Clone, Copy, Debug)]
-struct Slot {
-    generation: u32,
-    /// Dense index of the character, or `u32::MAX` when free.
-    dense: u32,
 }
 
 /// When a character's clock passes this many seconds, it and its stamps move back by half.
@@ -129,8 +124,8 @@ pub struct Crowd {
     /// model matrices are never a multiple of 4 KiB apart (that aliasing made loads of a parent's
     /// fresh model matrix wait on unrelated stores and cost half the model-space pass).
     stride: usize,
-    slots: Vec<Slot>,
-    free: Vec<u32>,
+    /// Id → dense index (generational: a removed character's id goes stale).
+    slots: Arena<u32>,
     chars: Vec<Character>,
     locals: Vec<Affine3A>,
     models: Vec<Mat4>,
@@ -151,6 +146,11 @@ pub struct Crowd {
     scratch: Scratch,
 }
 
+/// The arena handle of a character id.
+fn handle(id: CharacterId) -> Handle {
+    Handle::from_raw(id.index(), id.generation())
+}
+
 fn check_finite3(v: Vec3, what: &'static str) -> Result<(), CrowdError> {
     if v.is_finite() {
         Ok(())
@@ -168,8 +168,7 @@ impl Crowd {
             rig,
             bones,
             stride: bones | 1,
-            slots: Vec::new(),
-            free: Vec::new(),
+            slots: Arena::new(Generations::PerSlot),
             chars: Vec::new(),
             locals: Vec::new(),
             models: Vec::new(),
@@ -227,12 +226,10 @@ impl Crowd {
     }
 
     fn dense(&self, id: CharacterId) -> Result<usize, CrowdError> {
-        match self.slots.get(id.index() as usize) {
-            Some(s) if s.generation == id.generation() && s.dense != u32::MAX => {
-                Ok(s.dense as usize)
-            }
-            _ => Err(CrowdError::StaleCharacter(id)),
-        }
+        self.slots
+            .get(handle(id))
+            .map(|&d| d as usize)
+            .ok_or(CrowdError::StaleCharacter(id))
     }
 
     fn clip_ref(&self, clip: ClipId) -> Result<&Clip, CrowdError> {
@@ -251,20 +248,8 @@ impl Crowd {
         if self.chars.len() >= u32::MAX as usize - 1 {
             return Err(CrowdError::TooManyCharacters);
         }
-        let index = match self.free.pop() {
-            Some(i) => i,
-            None => {
-                self.slots.push(Slot {
-                    generation: 0,
-                    dense: u32::MAX,
-                });
-                (self.slots.len() - 1) as u32
-            }
-        };
-        let slot = &mut self.slots[index as usize];
-        slot.generation = slot.generation.wrapping_add(1).max(1);
-        slot.dense = self.chars.len() as u32;
-        let id = CharacterId::from_raw(index, slot.generation);
+        let h = self.slots.insert(self.chars.len() as u32);
+        let id = CharacterId::from_raw(h.index(), h.generation());
         self.chars.push(Character {
             id,
             position,
@@ -302,17 +287,17 @@ impl Crowd {
                 .copy_within(last * n..(last + 1) * n, d * n);
             self.drift.copy_within(last * n..(last + 1) * n, d * n);
             let moved = self.chars[last].id;
-            self.slots[moved.index() as usize].dense = d as u32;
+            *self
+                .slots
+                .get_mut(handle(moved))
+                .expect("every live character has a slot") = d as u32;
         }
         self.chars.swap_remove(d);
         self.locals.truncate(last * n);
         self.models.truncate(last * n);
         self.last_update.truncate(last * n);
         self.drift.truncate(last * n);
-        let slot = &mut self.slots[id.index() as usize];
-        slot.dense = u32::MAX;
-        slot.generation = slot.generation.wrapping_add(1).max(1);
-        self.free.push(id.index());
+        self.slots.remove(handle(id));
         Ok(())
     }
 
