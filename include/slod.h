@@ -190,6 +190,12 @@ enum SlodClothBudget
    * moves the node budget to hold it (results then depend on the machine's speed).
    */
   SLOD_CLOTH_BUDGET_TARGET_STEP_MS = 2,
+  /**
+   * `budget_value` is an on-screen error bound in pixels of the world's view (> 0, <= 1e6):
+   * the loop spends the fewest nodes that keep each node's estimated on-screen deviation
+   * under it (the crowd's `SLOD_LOD_MODE_ERROR_BOUND` means the same).
+   */
+  SLOD_CLOTH_BUDGET_MAX_ERROR_PX = 3,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -509,6 +515,17 @@ typedef struct SlodFeedbackDesc {
    * a world created with one worker thread).
    */
   uint32_t parallel;
+  /**
+   * Weight of the BSWDF's motion salience, in [0, 1e6] (default 1; 0 leaves only the
+   * deformation term).
+   */
+  float motion_weight;
+  /**
+   * 1 (default): the camera shapes the cut; 0: salience and priorities are measured through a
+   * canonical face-on view instead (an ablation; the error-bound budget always uses the
+   * world's view).
+   */
+  uint32_t view_dependent;
 } SlodFeedbackDesc;
 
 /**
