@@ -221,6 +221,10 @@ enum SlodPriorityModel
    * The BSWDF salience alone, as in the paper.
    */
   SLOD_PRIORITY_MODEL_SALIENCE = 1,
+  /**
+   * Screen error plus the node's estimated on-screen deviation in pixels.
+   */
+  SLOD_PRIORITY_MODEL_SCREEN_DEVIATION = 2,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -494,7 +498,8 @@ typedef struct SlodFeedbackDesc {
    */
   uint32_t max_ops;
   /**
-   * Minimum priority gain for moving detail (finite, >= 0): keeps nodes from flickering.
+   * Minimum priority gain for moving detail, as a multiple of the simulated nodes' mean
+   * priority (finite, >= 0; default 1.5): keeps nodes from flickering.
    */
   float hysteresis;
   /**
@@ -962,7 +967,7 @@ struct SlodClothDesc slod_default_cloth_desc(void);
 
 /**
  * The default feedback settings (the Rust defaults): 30% compression, evaluated every 5 steps,
- * hysteresis 6, at most 64 operations per evaluation, 0.5 s salience memory, deformation weight
+ * hysteresis 1.5 × the mean priority, at most 64 operations per evaluation, 0.5 s salience memory, deformation weight
  * 20, screen-error priority, serial.
  *
  * Returns a value the host owns; change fields, then pass it to `slod_cloth_set_feedback`.

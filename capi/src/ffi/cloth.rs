@@ -105,6 +105,8 @@ pub enum SlodPriorityModel {
     ScreenError = 0,
     /// The BSWDF salience alone, as in the paper.
     Salience = 1,
+    /// Screen error plus the node's estimated on-screen deviation in pixels.
+    ScreenDeviation = 2,
 }
 
 /// Settings of a cloth's feedback loop. Get one from `slod_default_feedback_desc`.
@@ -121,7 +123,8 @@ pub struct SlodFeedbackDesc {
     pub interval: u32,
     /// Most refine/coarse operations begun per evaluation, 1..=1048576.
     pub max_ops: u32,
-    /// Minimum priority gain for moving detail (finite, >= 0): keeps nodes from flickering.
+    /// Minimum priority gain for moving detail, as a multiple of the simulated nodes' mean
+    /// priority (finite, >= 0; default 1.5): keeps nodes from flickering.
     pub hysteresis: f32,
     /// Salience memory in seconds, in [0, 1e4] (0 turns it off).
     pub memory_seconds: f32,
@@ -172,7 +175,7 @@ pub extern "C" fn slod_default_cloth_desc() -> SlodClothDesc {
 }
 
 /// The default feedback settings (the Rust defaults): 30% compression, evaluated every 5 steps,
-/// hysteresis 6, at most 64 operations per evaluation, 0.5 s salience memory, deformation weight
+/// hysteresis 1.5 × the mean priority, at most 64 operations per evaluation, 0.5 s salience memory, deformation weight
 /// 20, screen-error priority, serial.
 ///
 /// Returns a value the host owns; change fields, then pass it to `slod_cloth_set_feedback`.
@@ -197,6 +200,7 @@ pub extern "C" fn slod_default_feedback_desc() -> SlodFeedbackDesc {
         priority: match f.priority {
             PriorityModel::ScreenError => SlodPriorityModel::ScreenError,
             PriorityModel::Salience => SlodPriorityModel::Salience,
+            PriorityModel::ScreenDeviation => SlodPriorityModel::ScreenDeviation,
         } as u32,
         parallel: u32::from(f.parallel),
         motion_weight: f.motion_weight,
@@ -725,6 +729,7 @@ impl SlodFeedbackDesc {
         let priority = match self.priority {
             0 => PriorityModel::ScreenError,
             1 => PriorityModel::Salience,
+            2 => PriorityModel::ScreenDeviation,
             p => {
                 return Err(FfiError::invalid(
                     "desc.priority",

@@ -188,7 +188,12 @@ impl Feedback {
                 seen,
             );
         }
-        if let ClothBudget::MaxErrorPx(bound) = self.settings.budget {
+        let error_bound = match self.settings.budget {
+            ClothBudget::MaxErrorPx(bound) => Some(bound),
+            _ => None,
+        };
+        let deviation = self.settings.priority == PriorityModel::ScreenDeviation;
+        if error_bound.is_some() || deviation {
             let positions = std::mem::take(&mut self.positions);
             let velocities = std::mem::take(&mut self.velocities);
             let dt = body.settings().solver.dt;
@@ -212,10 +217,17 @@ impl Feedback {
             // reads as one that can be merged; merges then wait.
             let warm = self.measurements as f32 * period >= self.settings.memory_seconds;
             self.measurements += 1;
-            self.error_budget = Some(self.error_priorities(body, &frame, bound, decay, warm));
+            if let Some(bound) = error_bound {
+                self.error_budget = Some(self.error_priorities(body, &frame, bound, decay, warm));
+            } else {
+                self.deviation
+                    .measure(body, &frame, (&self.offsets, &self.neighbours), decay);
+            }
             self.positions = positions;
             self.velocities = velocities;
-            return Ok(());
+            if error_bound.is_some() {
+                return Ok(());
+            }
         }
         let cut = body.cut();
         let h = body.hierarchy();
@@ -234,7 +246,7 @@ impl Feedback {
                 self.priorities[p.index()] = 0.0;
             }
         }
-        let screen = self.settings.priority == PriorityModel::ScreenError;
+        let screen = self.settings.priority != PriorityModel::Salience;
         for (i, &node) in nodes.iter().enumerate() {
             let s = self.salience[i];
             self.memory.store(node, s);
@@ -243,9 +255,21 @@ impl Feedback {
             } else {
                 1.0
             };
+            let own = if deviation {
+                self.deviation.particle_px[i]
+            } else {
+                0.0
+            };
+            let r_own = node_radius[node.index()];
             let value = |n: NodeId| {
                 if screen {
-                    s * px * node_radius[n.index()]
+                    let r = node_radius[n.index()];
+                    let dev = if r_own > 0.0 {
+                        own * (r / r_own).powi(2)
+                    } else {
+                        0.0
+                    };
+                    s * px * r + dev
                 } else {
                     s
                 }

@@ -41,6 +41,10 @@ pub enum PriorityModel {
     /// first is what spends a node budget best (measured in `cloth::tests`).
     #[default]
     ScreenError,
+    /// [`PriorityModel::ScreenError`] plus the node's estimated on-screen deviation in pixels
+    /// (what the error-bound budget uses: bending, latency and stretch; see the `deviation`
+    /// module). Both terms are pixels, so no weight relates them.
+    ScreenDeviation,
 }
 
 /// Settings of the feedback loop.
@@ -50,11 +54,15 @@ pub struct FeedbackSettings {
     pub interval: u32,
     /// What the cut may spend.
     pub budget: ClothBudget,
-    /// Minimum priority gain for swapping detail from one place to another (≥ 0, same unit as
-    /// the priorities: salience-weighted pixels with [`PriorityModel::ScreenError`]). Keeps
-    /// nodes from being refined and coarsened back and forth. Default 6: on the swinging net,
-    /// 2 undid 1–12% of the operations within 30 steps, 4–5 about 1.5%, 6 none, with the same
-    /// error (measured with `run_net`).
+    /// Minimum priority gain for swapping detail from one place to another, as a multiple of
+    /// the simulated nodes' mean priority at that evaluation (≥ 0). Keeps nodes from being
+    /// refined and coarsened back and forth. Relative because priorities scale with the
+    /// viewport, the camera's distance and the cloth's motion: the earlier absolute gain (6
+    /// salience-weighted px, fitted to the swinging net on a 720-px view) froze the cut of the
+    /// same net seen from three times farther away. Default 1.5: about that gain on the net's
+    /// own view (mean priority ≈ 4 on a 1080-px view), with no operation undone within 30 steps
+    /// there, at 3× the distance, and in the perception scenes (see `slod_experiments`).
+    /// Ignored by [`ClothBudget::MaxErrorPx`], whose hysteresis is a fraction of its bound.
     pub hysteresis: f32,
     /// Most operations begun per evaluation (≥ 1); bounds the work of one step.
     pub max_ops: usize,
@@ -100,7 +108,7 @@ impl Default for FeedbackSettings {
         FeedbackSettings {
             interval: 5,
             budget: ClothBudget::Compression(0.3),
-            hysteresis: 6.0,
+            hysteresis: 1.5,
             max_ops: 64,
             priority: PriorityModel::default(),
             params: BswdfParams {
@@ -133,7 +141,7 @@ impl FeedbackSettings {
             max_ops: self.max_ops,
             merge_key: match self.priority {
                 PriorityModel::Salience => MergeKey::MaxOfChildren,
-                PriorityModel::ScreenError => MergeKey::Parent,
+                PriorityModel::ScreenError | PriorityModel::ScreenDeviation => MergeKey::Parent,
             },
         }
     }
