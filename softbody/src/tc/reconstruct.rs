@@ -8,10 +8,13 @@
 //! * [`ReconstructionMode::Rigid`]: `x_v = x_j + R_j (rest_v − rest_j)` — each node carries its
 //!   vertices as a rigid patch. Exact at the finest cut; leaves small cracks between patches.
 //! * [`ReconstructionMode::Smooth`]: the rigid predictions of the covering particle and its
-//!   linked neighbours are blended with weights `(1 − (d/s_k)²)²` of the rest distance `d`
-//!   from neighbour `k` to the vertex, where `s_k` is `k`'s shortest link. A neighbour never
-//!   reaches the vertices of a node at the finest level (`d ≥ s`), so this is exact there too,
-//!   while patches of coarse nodes bend towards their neighbours instead of meeting at cracks.
+//!   linked neighbours are blended with weights `(1 − (d/s)²)²` of the rest distance `d`
+//!   from neighbour `k` to the vertex, where `s` is the larger of `k`'s and the covering
+//!   node's shortest links. A neighbour never reaches the vertices of a node at the finest
+//!   level when both are fine (`d ≥ s`), so this is exact there too, while patches of coarse
+//!   nodes bend towards their neighbours instead of meeting at cracks — fine neighbours
+//!   included (with `k`'s support alone they never reached a coarse node's vertices, and a
+//!   coarse node's edge stood out from its fine neighbours along free edges).
 //!
 //! Which is better was measured (test `smooth_reconstruction_beats_rigid`): restricting a
 //! simulated full-resolution swinging net to uniform coarser cuts and reconstructing it,
@@ -201,7 +204,7 @@ impl TreeCutSoftBody {
                         for q in self.body.neighbours(ParticleId::new(p)) {
                             let qi = q.index();
                             let q_rest = h.rest_position(self.particle_node[qi]);
-                            let w = kernel((rv - q_rest).length(), support[qi]);
+                            let w = kernel((rv - q_rest).length(), support[qi].max(support[p]));
                             if w > 0.0 {
                                 acc += (pos[qi].truncate() + rot.get(qi) * (rv - q_rest)) * w;
                                 w_sum += w;
