@@ -13,6 +13,7 @@
 use crate::error::SoftBodyError;
 use crate::group::{GroupId, GroupStore, GroupTarget};
 use crate::ids::{LinkId, ParticleId};
+use crate::kernel::KernelPath;
 use crate::links::{LinkInfo, LinkStore};
 use crate::settings::SolverSettings;
 use glam::{Vec3, Vec3A, Vec4};
@@ -39,6 +40,7 @@ pub struct SoftBody {
     anchors: Vec<Anchor>,
     links: LinkStore,
     groups: GroupStore,
+    kernel: KernelPath,
 }
 
 fn finite3(v: Vec3, what: &'static str) -> Result<(), SoftBodyError> {
@@ -64,12 +66,29 @@ impl SoftBody {
             anchors: Vec::new(),
             links: LinkStore::default(),
             groups: GroupStore::default(),
+            kernel: KernelPath::detect(),
         })
     }
 
     /// The current settings.
     pub fn settings(&self) -> &SolverSettings {
         &self.settings
+    }
+
+    /// The link kernel path this body uses ([`KernelPath::detect`] unless set).
+    pub fn kernel_path(&self) -> KernelPath {
+        self.kernel
+    }
+
+    /// Chooses the link kernel path. Every path gives bit-identical results (see
+    /// [`KernelPath`]), so this only changes speed; tests and benchmarks use it to compare paths.
+    /// A path this CPU cannot run is refused.
+    pub fn set_kernel_path(&mut self, path: KernelPath) -> Result<(), SoftBodyError> {
+        if !path.is_supported() {
+            return Err(SoftBodyError::UnsupportedKernel(path.name()));
+        }
+        self.kernel = path;
+        Ok(())
     }
 
     /// Replaces the settings (validated first).
@@ -519,7 +538,7 @@ impl SoftBody {
             self.links.reset_lambdas();
             self.groups.reset_lambdas();
             for _ in 0..s.iterations {
-                self.links.solve(&mut self.positions, inv_h2);
+                self.links.solve(self.kernel, &mut self.positions, inv_h2);
                 if !self.groups.is_empty() {
                     self.groups.solve(&mut self.positions, inv_h2);
                 }
