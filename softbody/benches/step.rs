@@ -2,7 +2,7 @@
 //!
 //! * `bullet65` / `bullet129`: 65×65 and 129×129 grids built like Bullet's cloth from a
 //!   triangle mesh (triangle edges + distance-2 bend links), 20 iterations, dt 1/60, four
-//!   corners pinned. Peer: Bullet 5.1 ms and 42 ms per step on this kind of machine.
+//!   corners pinned. Bullet itself on the same cloths: `python3 bench/peers/bullet_cloth.py`.
 //! * `paper`: the seed paper's net, 4266 nodes (a 79×54 grid) with structural links only.
 //!
 //! Each runs once per kernel path this CPU supports (`…/avx512`, `…/avx2`, `…/lanes4`,
