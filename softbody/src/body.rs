@@ -448,6 +448,33 @@ impl SoftBody {
         }
     }
 
+    /// Renumbers the particles: new particle `i` is old particle `order[i]` (`order` is a
+    /// permutation of `0..particle_count`). Every per-particle value, anchor and group member
+    /// moves with its particle, and the links are re-coloured in canonical order (see
+    /// `LinkStore::renumber`); link ids do not change.
+    pub(crate) fn permute_particles(&mut self, order: &[u32]) {
+        debug_assert_eq!(order.len(), self.positions.len());
+        let mut new_of_old = vec![0u32; order.len()];
+        for (new, &old) in order.iter().enumerate() {
+            new_of_old[old as usize] = new as u32;
+        }
+        fn gather<T: Copy>(v: &mut Vec<T>, order: &[u32]) {
+            let permuted: Vec<T> = order.iter().map(|&o| v[o as usize]).collect();
+            *v = permuted;
+        }
+        gather(&mut self.positions, order);
+        gather(&mut self.velocities, order);
+        gather(&mut self.masses, order);
+        gather(&mut self.forces, order);
+        gather(&mut self.collides, order);
+        gather(&mut self.prev, order);
+        for a in &mut self.anchors {
+            a.particle = new_of_old[a.particle as usize];
+        }
+        self.groups.remap_particles(&new_of_old);
+        self.links.renumber(&new_of_old);
+    }
+
     /// Creates a group (see [`crate::group`]) over `members` with their `masses`.
     pub(crate) fn create_group(&mut self, members: &[u32], masses: &[f32], weight: f32) -> GroupId {
         self.groups.create(members, masses, weight)

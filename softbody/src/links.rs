@@ -186,6 +186,52 @@ impl LinkStore {
                 LinkId::new(self.slots.len() - 1)
             }
         };
+        self.insert(id, a, b, rest, compliance, weight);
+        id
+    }
+
+    /// Renames every particle `p` to `new_of_old[p]` and rebuilds the batches: every link
+    /// keeps its id, ends (renamed), rest length, compliance and weight, and the links are
+    /// coloured again in canonical order (sorted by their renamed `(smaller, larger)` ends, the
+    /// order the builders use), so the result is the store a builder would make for the
+    /// renumbered particles. Multipliers are not kept (they restart at every substep).
+    pub(crate) fn renumber(&mut self, new_of_old: &[u32]) {
+        let mut links: Vec<(u32, u32, LinkInfo)> = self
+            .iter()
+            .map(|l| {
+                let (a, b) = (new_of_old[l.a.index()], new_of_old[l.b.index()]);
+                (a.min(b), a.max(b), l)
+            })
+            .collect();
+        links.sort_unstable_by_key(|&(lo, hi, l)| (lo, hi, l.id.raw()));
+        let particles = self.colours.len();
+        self.batches.clear();
+        self.overflow = Batch::default();
+        self.colours.clear();
+        self.colours.resize(particles, 0);
+        for list in &mut self.incident {
+            list.clear();
+        }
+        self.slots.fill(Slot {
+            batch: FREE,
+            index: 0,
+        });
+        self.len = 0;
+        for &(_, _, l) in &links {
+            let (a, b) = (new_of_old[l.a.index()], new_of_old[l.b.index()]);
+            self.insert(l.id, a, b, l.rest, l.compliance, l.weight);
+        }
+        // Free ids, the smallest handed out first (as from a fresh store).
+        self.free.clear();
+        self.free.extend(
+            (0..self.slots.len() as u32)
+                .rev()
+                .filter(|&i| self.slots[i as usize].batch == FREE),
+        );
+    }
+
+    /// Colours and stores a link under a free id.
+    fn insert(&mut self, id: LinkId, a: u32, b: u32, rest: f32, compliance: f32, weight: f32) {
         let used = self.colours[a as usize] | self.colours[b as usize];
         let colour = (!used).trailing_zeros();
         let slot = if (colour as usize) < COLOURS {
@@ -212,7 +258,6 @@ impl LinkStore {
         self.incident[a as usize].push((id, b));
         self.incident[b as usize].push((id, a));
         self.len += 1;
-        id
     }
 
     /// Whether `id` names a live link.
