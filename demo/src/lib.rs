@@ -17,6 +17,7 @@ mod font;
 mod machine;
 mod net;
 mod paper;
+mod peer;
 mod plots;
 mod progress;
 mod render;

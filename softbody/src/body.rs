@@ -13,6 +13,7 @@
 use crate::error::SoftBodyError;
 use crate::group::{GroupId, GroupStore, GroupTarget};
 use crate::ids::{LinkId, ParticleId};
+use crate::kernel::KernelPath;
 use crate::links::{LinkInfo, LinkStore};
 use crate::settings::SolverSettings;
 use glam::{Vec3, Vec3A, Vec4};
@@ -39,6 +40,7 @@ pub struct SoftBody {
     anchors: Vec<Anchor>,
     links: LinkStore,
     groups: GroupStore,
+    kernel: KernelPath,
 }
 
 fn finite3(v: Vec3, what: &'static str) -> Result<(), SoftBodyError> {
@@ -64,12 +66,29 @@ impl SoftBody {
             anchors: Vec::new(),
             links: LinkStore::default(),
             groups: GroupStore::default(),
+            kernel: KernelPath::detect(),
         })
     }
 
     /// The current settings.
     pub fn settings(&self) -> &SolverSettings {
         &self.settings
+    }
+
+    /// The link kernel path this body uses ([`KernelPath::detect`] unless set).
+    pub fn kernel_path(&self) -> KernelPath {
+        self.kernel
+    }
+
+    /// Chooses the link kernel path. Every path gives bit-identical results (see
+    /// [`KernelPath`]), so this only changes speed; tests and benchmarks use it to compare paths.
+    /// A path this CPU cannot run is refused.
+    pub fn set_kernel_path(&mut self, path: KernelPath) -> Result<(), SoftBodyError> {
+        if !path.is_supported() {
+            return Err(SoftBodyError::UnsupportedKernel(path.name()));
+        }
+        self.kernel = path;
+        Ok(())
     }
 
     /// Replaces the settings (validated first).
@@ -429,6 +448,33 @@ impl SoftBody {
         }
     }
 
+    /// Renumbers the particles: new particle `i` is old particle `order[i]` (`order` is a
+    /// permutation of `0..particle_count`). Every per-particle value, anchor and group member
+    /// moves with its particle, and the links are re-coloured in canonical order (see
+    /// `LinkStore::renumber`); link ids do not change.
+    pub(crate) fn permute_particles(&mut self, order: &[u32]) {
+        debug_assert_eq!(order.len(), self.positions.len());
+        let mut new_of_old = vec![0u32; order.len()];
+        for (new, &old) in order.iter().enumerate() {
+            new_of_old[old as usize] = new as u32;
+        }
+        fn gather<T: Copy>(v: &mut Vec<T>, order: &[u32]) {
+            let permuted: Vec<T> = order.iter().map(|&o| v[o as usize]).collect();
+            *v = permuted;
+        }
+        gather(&mut self.positions, order);
+        gather(&mut self.velocities, order);
+        gather(&mut self.masses, order);
+        gather(&mut self.forces, order);
+        gather(&mut self.collides, order);
+        gather(&mut self.prev, order);
+        for a in &mut self.anchors {
+            a.particle = new_of_old[a.particle as usize];
+        }
+        self.groups.remap_particles(&new_of_old);
+        self.links.renumber(&new_of_old);
+    }
+
     /// Creates a group (see [`crate::group`]) over `members` with their `masses`.
     pub(crate) fn create_group(&mut self, members: &[u32], masses: &[f32], weight: f32) -> GroupId {
         self.groups.create(members, masses, weight)
@@ -519,7 +565,7 @@ impl SoftBody {
             self.links.reset_lambdas();
             self.groups.reset_lambdas();
             for _ in 0..s.iterations {
-                self.links.solve(&mut self.positions, inv_h2);
+                self.links.solve(self.kernel, &mut self.positions, inv_h2);
                 if !self.groups.is_empty() {
                     self.groups.solve(&mut self.positions, inv_h2);
                 }

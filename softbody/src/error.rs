@@ -43,6 +43,9 @@ pub enum SoftBodyError {
     /// A solver setting was invalid (time step not positive, zero substeps or iterations, ...).
     #[error("invalid setting: {0}")]
     BadSetting(&'static str),
+    /// The requested link kernel path needs a CPU feature this machine lacks.
+    #[error("kernel path {0} is not supported by this CPU")]
+    UnsupportedKernel(&'static str),
     /// A builder was given too few vertices (a grid needs at least 2×2).
     #[error("degenerate input: {0}")]
     Degenerate(&'static str),

@@ -25,6 +25,7 @@ mod pins;
 #[cfg(test)]
 mod query_tests;
 mod reconstruct;
+mod renumber;
 #[cfg(test)]
 mod tests;
 
@@ -214,6 +215,10 @@ pub struct TreeCutSoftBody {
     spare: Vec<Transition>,
     pins: pins::Pins,
     scratch: Scratch,
+    /// Particles added or removed since the last spatial renumbering (module `renumber`).
+    churn: u32,
+    /// Whether `step` renumbers by itself.
+    auto_renumber: bool,
 }
 
 impl TreeCutSoftBody {
@@ -286,6 +291,8 @@ impl TreeCutSoftBody {
             spare: Vec::new(),
             pins: pins::Pins::new(n_nodes, n_vertices),
             scratch: Scratch::default(),
+            churn: 0,
+            auto_renumber: true,
         })
     }
 
@@ -471,12 +478,14 @@ impl TreeCutSoftBody {
     }
 
     /// One frame: advance blend weights, step the solver, end the transitions whose blend is
-    /// complete (in the order they began).
+    /// complete (in the order they began), and renumber the particles spatially when enough
+    /// have come and gone (see [`TreeCutSoftBody::renumber_particles`]).
     pub fn step(&mut self) {
         self.update_pins();
         self.advance_blends();
         self.body.step();
         self.end_finished();
+        self.renumber_if_scattered();
     }
 
     /// Advances every transition's blend by one step and sets the link weights accordingly
@@ -563,6 +572,7 @@ impl TreeCutSoftBody {
         };
         self.node_particle[node.index()] = p.raw();
         self.particle_node.push(node);
+        self.churn += 1;
         p.raw()
     }
 
@@ -577,6 +587,7 @@ impl TreeCutSoftBody {
             self.node_particle[moved_node.index()] = p;
         }
         self.particle_node.pop();
+        self.churn += 1;
     }
 
     /// Checks internal consistency (tests).
