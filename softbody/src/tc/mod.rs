@@ -25,6 +25,9 @@ mod pins;
 #[cfg(test)]
 mod query_tests;
 mod reconstruct;
+mod surface;
+#[cfg(test)]
+mod surface_tests;
 #[cfg(test)]
 mod tests;
 
@@ -103,6 +106,9 @@ pub enum TreeCutError {
         /// Number of vertices.
         count: usize,
     },
+    /// Wind needs the cloth's triangles first ([`TreeCutSoftBody::set_surface`]).
+    #[error("wind needs the cloth's triangles: call set_surface first")]
+    NoSurface,
     /// An output buffer has the wrong length.
     #[error("buffer holds {got} entries, {expected} needed")]
     BufferLength {
@@ -214,6 +220,7 @@ pub struct TreeCutSoftBody {
     spare: Vec<Transition>,
     pins: pins::Pins,
     scratch: Scratch,
+    surface: surface::Surface,
 }
 
 impl TreeCutSoftBody {
@@ -273,6 +280,10 @@ impl TreeCutSoftBody {
         }
         let n_nodes = h.len();
         let n_vertices = h.vertex_count();
+        let surface = surface::Surface::new(h);
+        for (p, n) in particle_node.iter().enumerate() {
+            body.set_collision_radius(ParticleId::new(p), surface.radius[n.index()])?;
+        }
         Ok(Self {
             hierarchy,
             cut,
@@ -286,6 +297,7 @@ impl TreeCutSoftBody {
             spare: Vec::new(),
             pins: pins::Pins::new(n_nodes, n_vertices),
             scratch: Scratch::default(),
+            surface,
         })
     }
 
@@ -475,6 +487,7 @@ impl TreeCutSoftBody {
     pub fn step(&mut self) {
         self.update_pins();
         self.advance_blends();
+        self.prepare_surface();
         self.body.step();
         self.end_finished();
     }
@@ -563,6 +576,7 @@ impl TreeCutSoftBody {
         };
         self.node_particle[node.index()] = p.raw();
         self.particle_node.push(node);
+        self.init_particle_contact(p.raw());
         p.raw()
     }
 
