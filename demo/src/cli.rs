@@ -34,9 +34,11 @@ const USAGE: &str = "\
 slod-demo: simulation and animation level of detail, measured beside the papers
 
 USAGE:
-    slod-demo [OPTIONS]              everything: the swinging net, then the crowd (about a minute)
+    slod-demo [OPTIONS]              everything: the swinging net, the crowd, the engine scenes
     slod-demo net [OPTIONS]          the swinging net only (simulation paper, section 6)
     slod-demo crowd [OPTIONS]        the crowd only (bone-priority thesis, chapter 13)
+    slod-demo engine [OPTIONS]       the engine scenes only: colliders, wind, a cape on a walking
+                                     character; reference and LOD at 30% of the nodes
 
 OPTIONS:
     --out DIR             where report.json, pictures and plots go [default: out]
@@ -75,6 +77,8 @@ pub(crate) enum Section {
     Net,
     /// The crowd only.
     Crowd,
+    /// The engine scenes only.
+    Engine,
 }
 
 impl Section {
@@ -84,6 +88,7 @@ impl Section {
             Section::All => "all",
             Section::Net => "net",
             Section::Crowd => "crowd",
+            Section::Engine => "engine",
         }
     }
 
@@ -95,6 +100,11 @@ impl Section {
     /// Whether the crowd runs.
     pub(crate) fn crowd(self) -> bool {
         matches!(self, Section::All | Section::Crowd)
+    }
+
+    /// Whether the engine scenes run.
+    pub(crate) fn engine(self) -> bool {
+        matches!(self, Section::All | Section::Engine)
     }
 }
 
@@ -297,6 +307,14 @@ pub(crate) fn parse(args: &[String]) -> Result<Parsed, DemoError> {
             "`{o}` is a net option; the `crowd` command does not run the net"
         )));
     }
+    if section == Section::Engine
+        && let Some(o) =
+            last_given(&matches, &NET_OPTIONS).or_else(|| last_given(&matches, &CROWD_OPTIONS))
+    {
+        return Err(usage_error(format!(
+            "`{o}` is a net or crowd option; the `engine` command runs neither"
+        )));
+    }
     if let (Section::Net, Some(o)) = (section, last_given(&matches, &CROWD_OPTIONS)) {
         return Err(usage_error(format!(
             "`{o}` is a crowd option; the `net` command does not run the crowd"
@@ -383,11 +401,12 @@ fn word(v: &str) -> Result<Word, String> {
     Ok(match v {
         "net" => Word::Run(Section::Net),
         "crowd" => Word::Run(Section::Crowd),
+        "engine" => Word::Run(Section::Engine),
         "all" => Word::Run(Section::All),
         "help" => Word::Help,
         _ => {
             return Err(format!(
-                "unknown command `{v}` (expected `net`, `crowd` or none)"
+                "unknown command `{v}` (expected `net`, `crowd`, `engine` or none)"
             ));
         }
     })

@@ -12,6 +12,7 @@
 mod app;
 mod cli;
 mod crowd;
+mod engine;
 mod error;
 mod font;
 mod machine;

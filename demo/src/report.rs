@@ -7,6 +7,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::crowd::CrowdSection;
+use crate::engine::EngineSection;
 use crate::error::DemoError;
 use crate::machine::Machine;
 use crate::net::NetSection;
@@ -21,6 +22,8 @@ pub(crate) struct Seconds {
     pub(crate) net: f64,
     /// The crowd section's measurements.
     pub(crate) crowd: f64,
+    /// The engine section's measurements.
+    pub(crate) engine: f64,
     /// Drawing pictures and plots.
     pub(crate) pictures: f64,
     /// Everything, report included.
@@ -32,7 +35,7 @@ pub(crate) struct Seconds {
 pub(crate) struct Report<'a> {
     /// [`SCHEMA`].
     pub(crate) schema: &'static str,
-    /// `all`, `net` or `crowd`.
+    /// `all`, `net`, `crowd` or `engine`.
     pub(crate) command: &'static str,
     /// Whether `--quick` was given.
     pub(crate) quick: bool,
@@ -44,6 +47,8 @@ pub(crate) struct Report<'a> {
     pub(crate) net: Option<&'a NetSection>,
     /// The crowd (null when not run).
     pub(crate) crowd: Option<&'a CrowdSection>,
+    /// The engine scenes (null when not run).
+    pub(crate) engine: Option<&'a EngineSection>,
     /// Files written next to the report (names relative to the output directory).
     pub(crate) files: Vec<String>,
     /// Wall times.

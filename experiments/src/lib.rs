@@ -4,6 +4,8 @@
 //!
 //! - [`net`] — the simulation paper's swinging net (`simulation-lod-treecut-softbody-bswdf.txt`,
 //!   section 6): a full-resolution reference, feedback runs and static cuts, measured.
+//! - [`engine`] — the engine scenes (issue 14): colliders, wind, a cape worn by a walking
+//!   character, at full resolution and at 30% of the nodes.
 //! - [`crowd`] — the thesis' crowd test (`animation-lod-bone-priority-thesis.txt`, chapter 13).
 //! - [`rig`] — rigs built for the experiments from real ones ([`rig::grown_to`]).
 //! - [`screen`] — what a viewer sees: on-screen error in pixels through a view, and pops.
@@ -12,6 +14,7 @@
 #![warn(missing_docs)]
 
 pub mod crowd;
+pub mod engine;
 pub mod net;
 pub mod rig;
 pub mod rng;

@@ -10,6 +10,7 @@
 //! a particle from one 16-byte load. Pinned particles have inverse mass 0; their true mass is
 //! kept in `masses` for momentum and centroids.
 
+use crate::collide::{Colliders, ContactParticles};
 use crate::error::SoftBodyError;
 use crate::group::{GroupId, GroupStore, GroupTarget};
 use crate::ids::{LinkId, ParticleId};
@@ -41,6 +42,8 @@ pub struct SoftBody {
     links: LinkStore,
     groups: GroupStore,
     kernel: KernelPath,
+    colliders: Colliders,
+    contact: ContactParticles,
 }
 
 fn finite3(v: Vec3, what: &'static str) -> Result<(), SoftBodyError> {
@@ -67,6 +70,8 @@ impl SoftBody {
             links: LinkStore::default(),
             groups: GroupStore::default(),
             kernel: KernelPath::detect(),
+            colliders: Colliders::default(),
+            contact: ContactParticles::default(),
         })
     }
 
@@ -129,6 +134,7 @@ impl SoftBody {
         self.forces.push(Vec4::ZERO);
         self.collides.push(true);
         self.prev.push(Vec4::ZERO);
+        self.contact.push();
         self.links.add_particle();
         ParticleId::new(self.positions.len() - 1)
     }
@@ -260,9 +266,8 @@ impl SoftBody {
         self.forces.fill(Vec4::ZERO);
     }
 
-    /// Whether a particle takes part in collision. TreeCut clears it on particles created by
-    /// a transition until the transition ends; there is no collision stage yet, so this flag
-    /// only records the contract for one.
+    /// Whether a particle takes part in collision (see [`crate::collide`]). TreeCut clears it
+    /// on particles created by a transition until the transition ends (the paper's section 3.4).
     pub fn collides(&self, p: ParticleId) -> bool {
         self.collides[p.index()]
     }
@@ -270,6 +275,56 @@ impl SoftBody {
     /// Sets the collision flag (see [`SoftBody::collides`]).
     pub fn set_collides(&mut self, p: ParticleId, collides: bool) {
         self.collides[p.index()] = collides;
+    }
+
+    /// The colliders this body collides with.
+    pub fn colliders(&self) -> &Colliders {
+        &self.colliders
+    }
+
+    /// The colliders, to add, move or remove them.
+    pub fn colliders_mut(&mut self) -> &mut Colliders {
+        &mut self.colliders
+    }
+
+    /// A particle's collision radius in metres (0: a point; the collider's thickness still
+    /// applies).
+    pub fn collision_radius(&self, p: ParticleId) -> f32 {
+        self.contact.radius[p.index()]
+    }
+
+    /// Sets a particle's collision radius (finite, >= 0).
+    pub fn set_collision_radius(
+        &mut self,
+        p: ParticleId,
+        radius: f32,
+    ) -> Result<(), SoftBodyError> {
+        let i = self.check_particle(p)?;
+        if !(radius.is_finite() && radius >= 0.0) {
+            return Err(SoftBodyError::BadCollider(
+                "collision radius must be finite and >= 0",
+            ));
+        }
+        self.contact.radius[i] = radius;
+        Ok(())
+    }
+
+    /// Whether a particle touched a collider during the last step.
+    pub fn touched(&self, p: ParticleId) -> bool {
+        self.contact.touched[p.index()]
+    }
+
+    /// Which particles touched a collider during the last step, parallel to the particles.
+    pub fn touched_all(&self) -> &[bool] {
+        &self.contact.touched
+    }
+
+    /// Adds `dv` to a free particle's velocity (an impulse per unit mass; pinned particles
+    /// ignore it).
+    pub(crate) fn add_velocity_raw(&mut self, i: usize, dv: Vec3) {
+        if self.positions[i].w > 0.0 {
+            self.velocities[i] += dv.extend(0.0);
+        }
     }
 
     /// Adds a full-weight link; see [`SoftBody::add_link_weighted`].
@@ -434,6 +489,7 @@ impl SoftBody {
         self.forces.swap_remove(i);
         self.collides.swap_remove(i);
         self.prev.swap_remove(i);
+        self.contact.swap_remove(i);
         self.anchors.retain(|a| a.particle != p);
         if p != last {
             for a in &mut self.anchors {
@@ -468,6 +524,8 @@ impl SoftBody {
         gather(&mut self.forces, order);
         gather(&mut self.collides, order);
         gather(&mut self.prev, order);
+        gather(&mut self.contact.radius, order);
+        gather(&mut self.contact.touched, order);
         for a in &mut self.anchors {
             a.particle = new_of_old[a.particle as usize];
         }
@@ -536,6 +594,10 @@ impl SoftBody {
         let inv_h2 = inv_h * inv_h;
         let damp = (-s.damping * h).exp();
         let g = s.gravity.extend(0.0);
+        let colliding = !self.colliders.is_empty();
+        if colliding {
+            self.begin_contact_step();
+        }
         for sub in 0..n {
             for (((x, v), f), prev) in self
                 .positions
@@ -570,6 +632,10 @@ impl SoftBody {
                     self.groups.solve(&mut self.positions, inv_h2);
                 }
             }
+            if colliding {
+                self.colliders
+                    .project(sub, n, &mut self.positions, &self.prev, &mut self.contact);
+            }
             for ((v, x), prev) in self
                 .velocities
                 .iter_mut()
@@ -582,6 +648,32 @@ impl SoftBody {
         for a in &mut self.anchors {
             a.start = a.target;
         }
+        self.colliders.end_step();
+    }
+
+    /// The contact broad phase for the coming step: how far a particle can get in one step
+    /// (twice its current speed plus gravity and its external force over the step, for
+    /// safety against links pulling it) bounds which particles each collider may touch.
+    fn begin_contact_step(&mut self) {
+        let dt = self.settings.dt;
+        let mut reach = 0f32;
+        for ((x, v), f) in self
+            .positions
+            .iter()
+            .zip(&self.velocities)
+            .zip(&self.forces)
+        {
+            if x.w > 0.0 {
+                let a = self.settings.gravity + f.truncate() * x.w;
+                reach = reach.max(v.truncate().length() * dt + a.length() * dt * dt);
+            }
+        }
+        self.colliders.begin_step(
+            &self.positions,
+            &self.collides,
+            &mut self.contact,
+            2.0 * reach + 1e-3,
+        );
     }
 
     #[cfg(test)]

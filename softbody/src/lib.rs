@@ -63,7 +63,13 @@
 //!
 //! Nodes in transition and all their neighbours are locked in the cut until the end, so no
 //! transition starts next to one in flight. New particles have [`SoftBody::collides`] false until
-//! their transition ends (there is no collision stage yet; the flag is the contract for one).
+//! their transition ends, when they join collision (the paper's section 3.4).
+//!
+//! # Colliders and wind
+//! [`collide`]: planes, spheres, capsules and oriented boxes with thickness and friction, static
+//! or moved by the host, projected once per substep after the links, behind a per-step broad
+//! phase. A TreeCut node's collision radius covers its children. [`wind`]: a gusty field with per-area drag and lift; a TreeCut node carries the area
+//! of the finest triangles it covers, so the total force does not depend on the cut.
 //! Pins belong to finest vertices; the node covering a pinned vertex is pinned where that vertex
 //! sits on its anchor (see [`TreeCutSoftBody::pin_vertex`]). [`TreeCutSoftBody::reconstruct`] gives
 //! every finest vertex a position (rigidly carried by its node's shape-matching rotation, blended
@@ -76,6 +82,7 @@
 
 mod body;
 mod builders;
+pub mod collide;
 mod error;
 mod group;
 mod ids;
@@ -84,12 +91,14 @@ mod links;
 mod settings;
 pub mod shape;
 mod tc;
+pub mod wind;
 
 #[cfg(test)]
 mod body_tests;
 
 pub use body::SoftBody;
 pub use builders::{GridCloth, MeshCloth, VertexMasses, distance_two_pairs};
+pub use collide::{ColliderDesc, ColliderId, Colliders, Shape, Transform};
 pub use error::SoftBodyError;
 pub use ids::{LinkId, ParticleId};
 pub use kernel::KernelPath;
@@ -101,3 +110,4 @@ pub use tc::{
 };
 /// The `treecut` crate this one builds on, re-exported so hosts use the same version.
 pub use treecut;
+pub use wind::{Wind, WindError, WindField, grid_triangles};

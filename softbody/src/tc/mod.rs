@@ -26,6 +26,9 @@ mod pins;
 mod query_tests;
 mod reconstruct;
 mod renumber;
+mod surface;
+#[cfg(test)]
+mod surface_tests;
 #[cfg(test)]
 mod tests;
 
@@ -104,6 +107,9 @@ pub enum TreeCutError {
         /// Number of vertices.
         count: usize,
     },
+    /// Wind needs the cloth's triangles first ([`TreeCutSoftBody::set_surface`]).
+    #[error("wind needs the cloth's triangles: call set_surface first")]
+    NoSurface,
     /// An output buffer has the wrong length.
     #[error("buffer holds {got} entries, {expected} needed")]
     BufferLength {
@@ -219,6 +225,7 @@ pub struct TreeCutSoftBody {
     churn: u32,
     /// Whether `step` renumbers by itself.
     auto_renumber: bool,
+    surface: surface::Surface,
 }
 
 impl TreeCutSoftBody {
@@ -278,6 +285,10 @@ impl TreeCutSoftBody {
         }
         let n_nodes = h.len();
         let n_vertices = h.vertex_count();
+        let surface = surface::Surface::new(h);
+        for (p, n) in particle_node.iter().enumerate() {
+            body.set_collision_radius(ParticleId::new(p), surface.radius[n.index()])?;
+        }
         Ok(Self {
             hierarchy,
             cut,
@@ -293,6 +304,7 @@ impl TreeCutSoftBody {
             scratch: Scratch::default(),
             churn: 0,
             auto_renumber: true,
+            surface,
         })
     }
 
@@ -483,6 +495,7 @@ impl TreeCutSoftBody {
     pub fn step(&mut self) {
         self.update_pins();
         self.advance_blends();
+        self.prepare_surface();
         self.body.step();
         self.end_finished();
         self.renumber_if_scattered();
@@ -573,6 +586,7 @@ impl TreeCutSoftBody {
         self.node_particle[node.index()] = p.raw();
         self.particle_node.push(node);
         self.churn += 1;
+        self.init_particle_contact(p.raw());
         p.raw()
     }
 
