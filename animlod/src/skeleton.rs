@@ -170,7 +170,7 @@ impl Skeleton {
     }
 
     /// Rest local transforms of all bones.
-    pub fn rest_pose(&self) -> &[Transform] {
+    pub(crate) fn rest_pose(&self) -> &[Transform] {
         &self.rest
     }
 
@@ -200,12 +200,12 @@ impl Skeleton {
     }
 
     /// Depth of the deepest bone.
-    pub fn max_depth(&self) -> u32 {
+    pub(crate) fn max_depth(&self) -> u32 {
         self.depth.iter().copied().max().unwrap_or(0)
     }
 
     /// Number of direct and indirect children of a bone.
-    pub fn descendant_count(&self, bone: BoneId) -> u32 {
+    pub(crate) fn descendant_count(&self, bone: BoneId) -> u32 {
         self.descendants[bone.index()]
     }
 

@@ -344,7 +344,7 @@ fn lod_report(lod: LodMode) -> LodReport {
 /// Runs every sweep of the plan.
 pub(crate) fn run(plan: &CrowdPlan, progress: Progress) -> Result<CrowdOutcome, DemoError> {
     let start = Instant::now();
-    let base = Rig::from_gltf_path(&plan.rig_path).map_err(|source| DemoError::Import {
+    let base = animlod::build::import_path(&plan.rig_path).map_err(|source| DemoError::Import {
         path: plan.rig_path.clone(),
         source,
     })?;

@@ -195,7 +195,7 @@ pub fn thesis_rig(rig: &Rig) -> Result<Rig, BuildError> {
             what: "rig height".into(),
         });
     }
-    grown.scaled(THESIS_HEIGHT / height)
+    animlod::build::scaled(&grown, THESIS_HEIGHT / height)
 }
 
 /// Character positions for a layout, centred on the origin.
@@ -368,7 +368,7 @@ mod tests {
     }
 
     fn thesis() -> (Arc<Rig>, ClipId) {
-        let base = Rig::from_gltf_path(&asset("GDQuest_GDBot.glb")).unwrap();
+        let base = animlod::build::import_path(&asset("GDQuest_GDBot.glb")).unwrap();
         let rig = Arc::new(thesis_rig(&base).unwrap());
         let clip = rig.clip_by_name("walk").unwrap();
         (rig, clip)
@@ -389,14 +389,17 @@ mod tests {
             - ys.iter().copied().fold(f32::MAX, f32::min);
         assert!((h - THESIS_HEIGHT).abs() < 1e-2, "{h}");
         // Scaling keeps the constant channels constant (the tolerance is relative).
-        let base = Rig::from_gltf_path(&asset("GDQuest_GDBot.glb")).unwrap();
+        let base = animlod::build::import_path(&asset("GDQuest_GDBot.glb")).unwrap();
         let walk = |r: &Rig| {
             r.clip(r.clip_by_name("walk").unwrap())
                 .unwrap()
                 .stats()
                 .constant
         };
-        assert_eq!(walk(&base.scaled(100.0).unwrap()), walk(&base));
+        assert_eq!(
+            walk(&animlod::build::scaled(&base, 100.0).unwrap()),
+            walk(&base)
+        );
     }
 
     #[test]

@@ -101,7 +101,8 @@ impl Crowd {
     pub(super) fn evaluate_full(&mut self, d: usize) {
         let span = self.span(d);
         let clip = &self.rig.clips()[self.chars[d].clip.index()];
-        let seg = clip.sub_priorities().segment_at(self.chars[d].time) as u32;
+        let seg =
+            self.rig.priorities[self.chars[d].clip.index()].segment_at(self.chars[d].time) as u32;
         let c = &mut self.chars[d];
         (c.segment, c.prev_segment, c.wrapped) = (seg, seg, false);
         let c = *c;
@@ -133,7 +134,7 @@ impl Crowd {
             c.time = clip.wrap_time(c.time + step);
             c.wrapped = c.time < before;
             c.prev_segment = c.segment;
-            c.segment = clip.sub_priorities().segment_at(c.time) as u32;
+            c.segment = rig.priorities[c.clip.index()].segment_at(c.time) as u32;
             c.clock += step;
             if c.clock > CLOCK_REBASE {
                 let shift = 0.5 * CLOCK_REBASE;
@@ -227,23 +228,24 @@ impl Crowd {
         }
         let mut count = slots;
         if !full {
-            let sub = clip.sub_priorities();
+            let sub = &rig.priorities[c.clip.index()];
             let go = &mut s.go[..slots];
             let last = &mut last[..slots];
             count = match budget {
                 None if error_bound.is_some() => {
                     let rates = step_row(&sub.hold_max, slots, sub.segment_count(), &c, &mut s.row);
                     let tol = error_bound.unwrap_or(f32::INFINITY);
-                    schedule_error(
+                    ErrorBoundJob {
                         rates,
-                        c.step,
-                        c.near_ppu,
-                        tol,
-                        &mut drift[..slots],
-                        c.clock,
+                        step: c.step,
+                        pixels_per_unit: c.near_ppu,
+                        tolerance_px: tol,
+                        clock: c.clock,
+                        drift: &mut drift[..slots],
                         last,
                         go,
-                    )
+                    }
+                    .run()
                 }
                 None => {
                     let row = step_row(
@@ -292,7 +294,7 @@ impl Crowd {
         }
         st.bones_interpolated = count as u64;
         st.bones_held = animated - count as u64;
-        s.trs.prepare(clip);
+        s.trs.prepare(clip.base_pose());
         clip.locate_all(c.time, &mut s.cursors);
         if full {
             clip.sample(&s.cursors, &mut s.trs);

@@ -23,7 +23,7 @@ use crate::lod::{LodMode, omega_from_distance, omega_from_pixels};
 use crate::pose_error::{ErrorSum, PoseError};
 use crate::priority::PriorityWeights;
 use crate::rig::Rig;
-use crate::scheduler::{SchedulerParams, schedule, schedule_error};
+use crate::scheduler::{ErrorBoundJob, SchedulerParams, schedule};
 use crate::skeleton::NO_PARENT;
 use crate::transform::concat;
 
@@ -425,7 +425,7 @@ impl Crowd {
     pub fn priorities(&self, clip: ClipId, segment: usize) -> Result<&[f32], CrowdError> {
         let c = self.clip_ref(clip)?;
         let slots = c.animated_bone_count();
-        if segment >= c.sub_priorities().segment_count() {
+        if segment >= self.rig.priorities[clip.index()].segment_count() {
             return Err(invalid("segment", "out of range"));
         }
         Ok(&self.tables[clip.index()][segment * slots..(segment + 1) * slots])
@@ -453,12 +453,13 @@ impl Crowd {
             .rig
             .clips()
             .iter()
-            .map(|c| match self.source {
+            .zip(&self.rig.priorities)
+            .map(|(c, p)| match self.source {
                 PrioritySource::Factors => {
                     let user: Vec<f32> = c.animated.iter().map(|&b| norm[b as usize]).collect();
-                    c.sub_priorities().combine(&self.weights, &user)
+                    p.combine(&self.weights, &user)
                 }
-                PrioritySource::HoldError => c.sub_priorities().measured(),
+                PrioritySource::HoldError => p.measured(),
             })
             .collect();
     }

@@ -30,7 +30,7 @@ use crate::skeleton::{BoneDesc, Skeleton};
 use crate::transform::Transform;
 use accessor::{Components, Reader};
 
-/// Options for [`Rig::from_gltf_slice_with`].
+/// Options for [`crate::build::import_slice_with`].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ImportOptions {
     /// How clips are built (constant-channel tolerance).
@@ -94,7 +94,7 @@ fn import_inner(
         })?;
         clips.push(clip);
     }
-    let mut rig = Rig::new(skeleton, clips, skins)?;
+    let mut rig = crate::build::rig(skeleton, clips, skins)?;
     rig.set_import_report(report);
     Ok(rig)
 }

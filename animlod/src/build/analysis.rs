@@ -4,7 +4,7 @@
 //!
 //! # What is fitted
 //!
-//! For every key segment `j` and animated bone `b` of a clip the clip holds, from load time, the
+//! For every key segment `j` and animated bone `b` of a clip the rig holds, from the build step, the
 //! *hold error rate* `e` ([`crate::SubPriorities::hold_error_rate_sum`]): hold `b`'s local transform at
 //! the segment start while everything else plays to the segment end, and sum the resulting
 //! model-space displacement of every joint (the bone's whole subtree moves with it), divided by
@@ -47,7 +47,7 @@ struct Sample {
 /// Samples of one clip: the six sub-priorities and the summed hold error rate measured at load
 /// time (see [`crate::SubPriorities::hold_error_rate_sum`]), normalised per clip and square-rooted.
 fn clip_samples(rig: &Rig, clip: ClipId, out: &mut Vec<Sample>) {
-    let sub = rig.clips()[clip.index()].sub_priorities();
+    let sub = &rig.priorities[clip.index()];
     let first = out.len();
     for j in 0..sub.segment_count() {
         for i in 0..sub.bone_count() {
@@ -275,12 +275,12 @@ pub fn evaluate_at_cost(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::import::tests::asset;
+    use crate::build::tests::asset;
 
     #[test]
     fn derived_weights_beat_equal_weights_at_equal_cost() {
         for (file, clip) in [("GDQuest_GDBot.glb", "walk"), ("Fox.glb", "Walk")] {
-            let rig = Arc::new(Rig::from_gltf_path(&asset(file)).unwrap());
+            let rig = Arc::new(crate::build::import_path(&asset(file)).unwrap());
             let id = rig.clip_by_name(clip).unwrap();
             let analysis = derive_weights(&rig, &[id]);
             let setup = CostSetup {

@@ -9,8 +9,8 @@ use gltf::json::Root;
 use gltf::json::accessor::{ComponentType, Type};
 use gltf::json::validation::Checked;
 
+use super::container::load_buffer;
 use crate::error::ImportError;
-use crate::import::container::load_buffer;
 
 /// Largest element count accepted for an accessor (far above any real animation).
 const MAX_COUNT: usize = 1 << 26;
