@@ -175,6 +175,9 @@ pub struct Clip {
     /// Bones that are animated or have an animated ancestor: the ones whose model matrix changes
     /// at full detail (ascending, so parents first).
     pub(crate) moving: Vec<u32>,
+    /// Per animated-bone slot: the slot of its nearest animated ancestor (`u32::MAX`: none).
+    /// The error bound sums the drift of held bones down each chain.
+    pub(crate) ancestor_slot: Vec<u32>,
     stats: ChannelStats,
     source: Vec<ChannelDesc>,
     options: ClipOptions,
@@ -423,6 +426,19 @@ impl Clip {
         for (i, &b) in animated.iter().enumerate() {
             slot_of[b as usize] = i as u32;
         }
+        let ancestor_slot = animated
+            .iter()
+            .map(|&b| {
+                let mut p = skeleton.parent(BoneId::from_raw(b));
+                while let Some(q) = p {
+                    if slot_of[q.index()] != u32::MAX {
+                        return slot_of[q.index()];
+                    }
+                    p = skeleton.parent(q);
+                }
+                u32::MAX
+            })
+            .collect();
         let mut slot_channels = vec![[ChannelRef::NONE; 3]; animated.len()];
         let mut refs = |p: usize, blocks: &mut dyn Iterator<Item = &Vec<u32>>| {
             for (bi, bones) in blocks.enumerate() {
@@ -449,6 +465,7 @@ impl Clip {
             animated,
             slot_channels,
             moving,
+            ancestor_slot,
             stats,
             source,
             options: *options,

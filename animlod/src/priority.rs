@@ -12,6 +12,9 @@
 //! - **Changes are rates** (per second of the segment) rather than per-key differences, so that
 //!   clips with uneven key spacing, or channels with different key times, are comparable; for the
 //!   evenly spaced keys the thesis assumed this only rescales, which the normalisation removes.
+//! - **Rotation change is the speed of the bone's tip** (angle rate × the bone's tip length,
+//!   [`crate::Skeleton::tip`]): a turn moves points at the bone's length, not at its origin,
+//!   and the same angle on a long bone is more visible than on a short one.
 //! - **A keyframe's priority describes the segment being played** (from key `k` to key `k + 1`):
 //!   that is the motion a held bone misses. The thesis attaches the change *into* key `k`, one
 //!   segment late.
@@ -139,6 +142,9 @@ pub struct SubPriorities {
     pub(crate) hold_sum: Vec<f32>,
     /// Largest `hold_max` of the clip.
     pub(crate) hold_max_peak: f32,
+    /// Per animated-bone slot: the displacement (model units) a hold across the looping clip's
+    /// end→start jump adds (see [`SubPriorities::wrap_jump`]).
+    pub(crate) wrap_jump: Vec<f32>,
 }
 
 impl SubPriorities {
@@ -171,18 +177,26 @@ impl SubPriorities {
             .min(n - 2)
     }
 
-    /// Largest translation (units/s), rotation (rad/s) and scale (1/s) rates over the clip: the
-    /// normalisers of the motion factors.
+    /// Largest translation (units/s), rotation (tip speed, units/s) and scale (1/s) rates over
+    /// the clip: the normalisers of the motion factors.
     pub fn max_rates(&self) -> [f32; 3] {
         self.max_rate
     }
 
     /// Measured hold error rate of animated bone `slot` in `segment`: how fast (model units per
-    /// second) the joint that drifts most moves away from its true position while this bone
-    /// alone holds its local transform from the segment start. Computed by the build step by
+    /// second) the joint origin or tip that drifts most moves away from its true position while
+    /// this bone alone holds its local transform from the segment start. Computed by the build step by
     /// replaying the segment with the bone held.
     pub fn hold_error_rate(&self, segment: usize, slot: usize) -> f32 {
         self.hold_max[segment * self.slots + slot]
+    }
+
+    /// The jump a hold of animated bone `slot` across the looping clip's end→start wrap adds to
+    /// its error: the largest displacement of a joint origin or tip while that bone alone keeps
+    /// its end pose and the rest is at the start pose (model units). Zero for clips whose last
+    /// pose equals their first.
+    pub fn wrap_jump(&self, slot: usize) -> f32 {
+        self.wrap_jump[slot]
     }
 
     /// The summed (over joints) hold error rate of animated bone `slot` in `segment`.

@@ -121,9 +121,24 @@ impl Rig {
         self.skins.get(id.index())
     }
 
-    /// A sphere (model space: centre, radius) holding every joint in the rest pose and in the
-    /// first pose of every clip. The crowd measures distance to its centre and projects its radius.
+    /// A sphere (model space: centre, radius) holding the characters: by default every joint
+    /// and joint tip in the rest pose and in the first pose of every clip (see
+    /// [`Rig::set_bounds`]). The crowd measures distance to its centre and projects its radius.
     pub fn bounds(&self) -> (Vec3, f32) {
         (self.bounds_center, self.bounds_radius)
+    }
+
+    /// Replaces the bounds (for a host that knows its mesh's extent, e.g. from the skinned
+    /// vertices). Refused, changing nothing, unless the centre is finite and the radius finite
+    /// and positive.
+    pub fn set_bounds(&mut self, center: Vec3, radius: f32) -> Result<(), BuildError> {
+        if !(center.is_finite() && radius.is_finite() && radius > 0.0) {
+            return Err(BuildError::NonFinite {
+                what: format!("bounds (centre {center}, radius {radius}): need finite, radius > 0"),
+            });
+        }
+        self.bounds_center = center;
+        self.bounds_radius = radius;
+        Ok(())
     }
 }

@@ -105,18 +105,28 @@ pub(crate) fn schedule(
 }
 
 /// One character's error-bounded scheduling step ([`crate::LodMode::ErrorBound`]), as a job
-/// with named fields (in the manner of ozz-animation's sampling jobs): each animated-bone slot
-/// `i` adds `step · rates[i]` (the drift its hold causes over this frame, model units) to its
-/// running bound `drift[i]`, and interpolates — resetting the bound and stamping
-/// `last[i] = clock` — once `drift[i] · pixels_per_unit` reaches `tolerance_px`.
+/// with named fields (in the manner of ozz-animation's sampling jobs). Each animated-bone slot
+/// `i` adds `step · rates[i]` (the drift its hold causes over this frame, model units; plus
+/// `jumps[i]` when the step wrapped around a looping clip) to its running bound `drift[i]`.
+/// A point of bone `i`'s subtree is displaced by at most the sum of the drifts of `i` and its
+/// held animated ancestors (`chain[i]`), so, visiting parents first, slot `i` interpolates —
+/// resetting its drift and stamping `last[i] = clock` — once `chain[i] · pixels_per_unit`
+/// reaches `tolerance_px`. Every chain then stays under the tolerance: an ancestor's chain
+/// already does when its descendants are visited.
 pub(crate) struct ErrorBoundJob<'a> {
     /// Hold error rate of each slot over this frame's step (model units per second).
     pub(crate) rates: &'a [f32],
+    /// Per slot: a displacement (model units) added once before the rate — the looping clip's
+    /// end→start jump when this step wrapped; empty when it did not.
+    pub(crate) jumps: &'a [f32],
+    /// Per slot: the slot of its nearest animated ancestor (`u32::MAX`: none); ancestors come
+    /// before their descendants.
+    pub(crate) ancestors: &'a [u32],
     /// Playback seconds advanced this frame.
     pub(crate) step: f32,
     /// Pixels per model unit at the character's nearest visible depth.
     pub(crate) pixels_per_unit: f32,
-    /// Largest on-screen drift (pixels) a held slot may reach.
+    /// Largest on-screen displacement (pixels) the held bones may cause at any point.
     pub(crate) tolerance_px: f32,
     /// Clock time stamped on the slots that interpolate.
     pub(crate) clock: f32,
@@ -126,6 +136,8 @@ pub(crate) struct ErrorBoundJob<'a> {
     pub(crate) last: &'a mut [f32],
     /// Per slot: written 1 if it interpolates now, else 0.
     pub(crate) go: &'a mut [u8],
+    /// Per slot: scratch for the summed drift down its chain.
+    pub(crate) chain: &'a mut [f32],
 }
 
 impl ErrorBoundJob<'_> {
@@ -136,15 +148,24 @@ impl ErrorBoundJob<'_> {
         let n = self
             .rates
             .len()
+            .min(self.ancestors.len())
             .min(self.drift.len())
             .min(self.last.len())
-            .min(self.go.len());
-        let (rates, drift, last, go) = (
+            .min(self.go.len())
+            .min(self.chain.len());
+        let (rates, ancestors, drift, last, go, chain) = (
             &self.rates[..n],
+            &self.ancestors[..n],
             &mut self.drift[..n],
             &mut self.last[..n],
             &mut self.go[..n],
+            &mut self.chain[..n],
         );
+        if !self.jumps.is_empty() {
+            for (d, &j) in drift.iter_mut().zip(self.jumps) {
+                *d += j;
+            }
+        }
         let (step, gain, tolerance, clock) = (
             self.step,
             self.pixels_per_unit,
@@ -153,10 +174,13 @@ impl ErrorBoundJob<'_> {
         );
         let mut count = 0;
         for i in 0..n {
+            let a = ancestors[i] as usize;
+            let above = if a < i { chain[a] } else { 0.0 };
             let d = drift[i] + step * rates[i];
-            let update = d * gain >= tolerance;
+            let update = (above + d) * gain >= tolerance;
             go[i] = update as u8;
             drift[i] = if update { 0.0 } else { d };
+            chain[i] = above + drift[i];
             last[i] = if update { clock } else { last[i] };
             count += update as u32;
         }

@@ -131,8 +131,9 @@ pub fn scaled(rig: &Rig, factor: f32) -> Result<Rig, BuildError> {
     Ok(out)
 }
 
-/// A sphere (centre, radius) holding every joint in the rest pose and in the first pose of every
-/// clip.
+/// A sphere (centre, radius) holding every joint and every joint's tip ([`Skeleton::tip`]) in
+/// the rest pose and in the first pose of every clip. The tips give a rig whose joints all sit
+/// at one point a radius, so its characters still have a size on screen.
 fn bounds(skeleton: &Skeleton, clips: &[Clip]) -> (Vec3, f32) {
     let joints: Vec<usize> = (0..skeleton.len())
         .filter(|&i| skeleton.is_joint(BoneId::new(i)))
@@ -141,13 +142,20 @@ fn bounds(skeleton: &Skeleton, clips: &[Clip]) -> (Vec3, f32) {
     let mut model = vec![Mat4::IDENTITY; skeleton.len()];
     let mut locals = skeleton.rest_locals().to_vec();
     skeleton.model_matrices(&locals, &mut model);
-    points.extend(joints.iter().map(|&j| model[j].w_axis.truncate()));
+    let tips = skeleton.tips();
+    let add = |model: &[Mat4], points: &mut Vec<Vec3>| {
+        for &j in &joints {
+            points.push(model[j].w_axis.truncate());
+            points.push(model[j].transform_point3(tips[j]));
+        }
+    };
+    add(&model, &mut points);
     for clip in clips {
         for (l, t) in locals.iter_mut().zip(clip.sample_pose(0.0)) {
             *l = t.to_affine();
         }
         skeleton.model_matrices(&locals, &mut model);
-        points.extend(joints.iter().map(|&j| model[j].w_axis.truncate()));
+        add(&model, &mut points);
     }
     if points.is_empty() {
         return (Vec3::ZERO, 0.0);

@@ -45,7 +45,7 @@ pub fn priorities(clip: &Clip, skeleton: &Skeleton) -> SubPriorities {
                     let b = b as usize;
                     let rates = [
                         (next.t[b] - prev.t[b]).length() / dt,
-                        rotation_angle(prev.r[b], next.r[b]) / dt,
+                        rotation_angle(prev.r[b], next.r[b]) * skeleton.tips()[b].length() / dt,
                         (next.s[b] - prev.s[b]).length() / dt,
                     ];
                     for f in 0..3 {
@@ -103,12 +103,15 @@ pub fn priorities(clip: &Clip, skeleton: &Skeleton) -> SubPriorities {
         hold_max,
         hold_sum,
         hold_max_peak,
+        wrap_jump: wrap_jumps(clip, skeleton),
     }
 }
 
 /// Replays every key segment once per animated bone with that bone held at the segment start,
-/// and measures how fast the joints drift from the full-rate pose at the segment end: the
-/// largest and the summed drift, divided by the segment length.
+/// and measures how fast the joints' origins and tips ([`Skeleton::tip`]) drift from the
+/// full-rate pose at the segment end: the largest and the summed drift, divided by the segment
+/// length. The tips make a bone's own rotation count (a leaf animated by rotation alone moves
+/// only its tip).
 fn hold_rates(
     clip: &Clip,
     skeleton: &Skeleton,
@@ -121,22 +124,85 @@ fn hold_rates(
     if timeline.len() < 2 || slots == 0 {
         return (max, sum);
     }
-    let n = skeleton.len();
-    let parents = skeleton.parents_raw();
-    let joints = skeleton.joint_flags();
-    let mut cursors: Vec<Cursor> = Vec::new();
-    let mut trs = TrsScratch::default();
-    let (mut l0, mut l1) = (vec![Affine3A::IDENTITY; n], vec![Affine3A::IDENTITY; n]);
-    let (mut m1, mut held) = (vec![Mat4::IDENTITY; n], vec![Mat4::IDENTITY; n]);
-    let mut in_subtree = vec![false; n];
+    let mut hold = HoldReplay::new(skeleton);
     for j in 0..segments {
         let dt = timeline[j + 1] - timeline[j];
         if dt.is_nan() || dt <= 0.0 {
             continue;
         }
-        clip.sample_locals(timeline[j], &mut cursors, &mut trs, &mut l0);
-        clip.sample_locals(timeline[j + 1], &mut cursors, &mut trs, &mut l1);
-        skeleton.model_matrices(&l1, &mut m1);
+        let row = j * slots..(j + 1) * slots;
+        hold.displacements(
+            clip,
+            timeline[j],
+            timeline[j + 1],
+            &mut max[row.clone()],
+            &mut sum[row.clone()],
+        );
+        max[row.clone()].iter_mut().for_each(|e| *e /= dt);
+        sum[row].iter_mut().for_each(|e| *e /= dt);
+    }
+    (max, sum)
+}
+
+/// The jump a looping clip makes from its end back to its start, per animated bone: the largest
+/// displacement of any joint origin or tip while that bone alone holds its end pose and the rest
+/// of the skeleton is at the start pose (model units). A bone held across the wrap owes this on
+/// top of its drift rates (the wrap is a jump, not a rate).
+fn wrap_jumps(clip: &Clip, skeleton: &Skeleton) -> Vec<f32> {
+    let slots = clip.animated.len();
+    let mut max = vec![0.0f32; slots];
+    if slots == 0 || clip.duration() <= 0.0 {
+        return max;
+    }
+    let mut sum = vec![0.0f32; slots];
+    HoldReplay::new(skeleton).displacements(clip, clip.duration(), 0.0, &mut max, &mut sum);
+    max
+}
+
+/// Scratch of a hold replay: the pose at two times and the model matrices of a subtree held.
+struct HoldReplay<'a> {
+    skeleton: &'a Skeleton,
+    cursors: Vec<Cursor>,
+    trs: TrsScratch,
+    l0: Vec<Affine3A>,
+    l1: Vec<Affine3A>,
+    m1: Vec<Mat4>,
+    held: Vec<Mat4>,
+    in_subtree: Vec<bool>,
+}
+
+impl<'a> HoldReplay<'a> {
+    fn new(skeleton: &'a Skeleton) -> Self {
+        let n = skeleton.len();
+        HoldReplay {
+            skeleton,
+            cursors: Vec::new(),
+            trs: TrsScratch::default(),
+            l0: vec![Affine3A::IDENTITY; n],
+            l1: vec![Affine3A::IDENTITY; n],
+            m1: vec![Mat4::IDENTITY; n],
+            held: vec![Mat4::IDENTITY; n],
+            in_subtree: vec![false; n],
+        }
+    }
+
+    /// For each animated-bone slot: hold that bone's local transform at clip time `from` while
+    /// everything else is at time `to`, and write the largest and the summed displacement of
+    /// the joints' origins and tips in its subtree against the pose at `to`.
+    fn displacements(&mut self, clip: &Clip, from: f32, to: f32, max: &mut [f32], sum: &mut [f32]) {
+        let sk = self.skeleton;
+        let n = sk.len();
+        let (parents, joints, tips) = (sk.parents_raw(), sk.joint_flags(), sk.tips());
+        clip.sample_locals(from, &mut self.cursors, &mut self.trs, &mut self.l0);
+        clip.sample_locals(to, &mut self.cursors, &mut self.trs, &mut self.l1);
+        sk.model_matrices(&self.l1, &mut self.m1);
+        let (l0, l1, m1, held, in_subtree) = (
+            &self.l0,
+            &self.l1,
+            &self.m1,
+            &mut self.held,
+            &mut self.in_subtree,
+        );
         for (i, &b) in clip.animated.iter().enumerate() {
             let b = b as usize;
             let (mut e_max, mut e_sum) = (0.0f32, 0.0f32);
@@ -154,16 +220,19 @@ fn hold_rates(
                     p => concat(&m1[p as usize], local),
                 };
                 if joints[x] {
-                    let e = (held[x].w_axis - m1[x].w_axis).truncate().length();
+                    let origin = (held[x].w_axis - m1[x].w_axis).truncate().length();
+                    let tip = held[x]
+                        .transform_point3(tips[x])
+                        .distance(m1[x].transform_point3(tips[x]));
+                    let e = origin.max(tip);
                     e_max = e_max.max(e);
                     e_sum += e;
                 }
             }
-            max[j * slots + i] = e_max / dt;
-            sum[j * slots + i] = e_sum / dt;
+            max[i] = e_max;
+            sum[i] = e_sum;
         }
     }
-    (max, sum)
 }
 
 #[cfg(test)]

@@ -129,10 +129,18 @@ impl Crowd {
         let (rig, stride) = (&self.rig, self.stride);
         for (d, c) in self.chars.iter_mut().enumerate() {
             let clip = &rig.clips()[c.clip.index()];
-            let step = dt * c.speed;
+            let mut step = dt * c.speed;
             let before = c.time;
-            c.time = clip.wrap_time(c.time + step);
-            c.wrapped = c.time < before;
+            if c.once {
+                // Stops on the last pose: only the time actually played counts as a step (a
+                // finished character accumulates no drift).
+                c.time = (c.time + step).min(clip.duration());
+                step = c.time - before;
+                c.wrapped = false;
+            } else {
+                c.time = clip.wrap_time(c.time + step);
+                c.wrapped = c.time < before;
+            }
             c.prev_segment = c.segment;
             c.segment = rig.priorities[c.clip.index()].segment_at(c.time) as u32;
             c.clock += step;
@@ -237,6 +245,8 @@ impl Crowd {
                     let tol = error_bound.unwrap_or(f32::INFINITY);
                     ErrorBoundJob {
                         rates,
+                        jumps: if c.wrapped { &sub.wrap_jump } else { &[] },
+                        ancestors: &clip.ancestor_slot,
                         step: c.step,
                         pixels_per_unit: c.near_ppu,
                         tolerance_px: tol,
@@ -244,6 +254,7 @@ impl Crowd {
                         drift: &mut drift[..slots],
                         last,
                         go,
+                        chain: &mut s.chain[..slots],
                     }
                     .run()
                 }

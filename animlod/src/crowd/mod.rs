@@ -83,6 +83,8 @@ struct Character {
     prev_segment: u32,
     /// Whether the last step wrapped around the end of the clip.
     wrapped: bool,
+    /// Plays the clip once and stops on its last pose (instead of looping).
+    once: bool,
     speed: f32,
     /// Playback seconds elapsed (holds are timed on it), kept below [`CLOCK_REBASE`] by shifting
     /// it and the last-update stamps together, so f32 keeps sub-millisecond resolution.
@@ -106,6 +108,9 @@ struct Scratch {
     go: Vec<u8>,
     /// Per animated-bone slot: priorities or rates max-combined over the segments a step crossed.
     row: Vec<f32>,
+    /// Error-bound mode: per animated-bone slot, the summed drift down its chain of ancestors.
+    chain: Vec<f32>,
+
     /// The slots that interpolate this frame (first entries).
     updated: Vec<u32>,
     /// The bones whose model matrix is recomputed this frame (first entries).
@@ -187,6 +192,7 @@ impl Crowd {
                 dirty: vec![0; bones + 1],
                 updated: vec![0; bones],
                 list: vec![0; bones],
+                chain: vec![0.0; bones],
                 ..Scratch::default()
             },
         };
@@ -258,6 +264,7 @@ impl Crowd {
             segment: 0,
             prev_segment: 0,
             wrapped: false,
+            once: false,
             speed: 1.0,
             clock: 0.0,
             omega: 1.0,
@@ -330,18 +337,35 @@ impl Crowd {
         Ok(self.chars[self.dense(id)?].clip)
     }
 
-    /// Jumps a character to playback time `time` (wrapped into the clip); the pose is
-    /// re-evaluated at once.
+    /// Jumps a character to playback time `time` (wrapped into the clip, or clamped to it for a
+    /// character that plays its clip once); the pose is re-evaluated at once.
     pub fn set_time(&mut self, id: CharacterId, time: f32) -> Result<(), CrowdError> {
         if !time.is_finite() {
             return Err(invalid("time", "must be finite"));
         }
         let d = self.dense(id)?;
         let clip = self.chars[d].clip;
-        let wrapped = self.rig.clips()[clip.index()].wrap_time(time);
-        self.chars[d].time = wrapped;
+        let clip = &self.rig.clips()[clip.index()];
+        self.chars[d].time = if self.chars[d].once {
+            time.clamp(0.0, clip.duration())
+        } else {
+            clip.wrap_time(time)
+        };
         self.evaluate_full(d);
         Ok(())
+    }
+
+    /// Whether a character plays its clip once, stopping on the last pose (`true`), or loops it
+    /// (`false`, the default). Switching to play-once past the end holds the last pose.
+    pub fn set_play_once(&mut self, id: CharacterId, once: bool) -> Result<(), CrowdError> {
+        let d = self.dense(id)?;
+        self.chars[d].once = once;
+        Ok(())
+    }
+
+    /// Whether a character plays its clip once (see [`Crowd::set_play_once`]).
+    pub fn play_once(&self, id: CharacterId) -> Result<bool, CrowdError> {
+        Ok(self.chars[self.dense(id)?].once)
     }
 
     /// A character's playback time within its clip.
@@ -503,3 +527,7 @@ mod frame;
 #[cfg(test)]
 #[path = "../crowd_tests.rs"]
 mod tests;
+
+#[cfg(test)]
+#[path = "../crowd_error_tests.rs"]
+mod error_tests;
