@@ -209,3 +209,38 @@ fn a_rig_with_every_joint_at_one_point_still_animates() {
     r.set_bounds(Vec3::ONE, 2.0).unwrap();
     assert_eq!(r.bounds(), (Vec3::ONE, 2.0));
 }
+
+#[test]
+fn a_budget_covering_every_bone_does_what_lod_off_does() {
+    // The budget mode never does more work than LOD off: a budget as large as the crowd's
+    // animated bones takes LOD off's path, pose for pose.
+    let rig = Arc::new(crate::build::import_path(&asset("GDQuest_GDBot.glb")).unwrap());
+    let clip = rig.clip_by_name("walk").unwrap();
+    let animated = rig.clip(clip).unwrap().animated_bone_count() as u32;
+    let (mut off, mut budget) = (Crowd::new(rig.clone()), Crowd::new(rig.clone()));
+    budget
+        .set_lod(LodMode::Budget {
+            bone_updates_per_frame: 3 * animated,
+        })
+        .unwrap();
+    for c in [&mut off, &mut budget] {
+        for i in 0..3 {
+            let id = c
+                .add_character(Vec3::new(i as f32, 0.0, 0.0), clip)
+                .unwrap();
+            c.set_time(id, 0.1 * i as f32).unwrap();
+        }
+    }
+    let view = view_at(4.0);
+    for _ in 0..20 {
+        let a = off.advance(1.0 / 60.0, &view).unwrap();
+        let b = budget.advance(1.0 / 60.0, &view).unwrap();
+        assert_eq!(a, b);
+    }
+    for (a, b) in off.character_ids().zip(budget.character_ids()) {
+        assert_eq!(
+            off.model_matrices(a).unwrap(),
+            budget.model_matrices(b).unwrap()
+        );
+    }
+}

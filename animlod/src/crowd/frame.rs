@@ -97,6 +97,14 @@ fn concat_moving(parents: &[u32], moving: &[u32], locals: &[Affine3A], models: &
 }
 
 impl Crowd {
+    /// Animated bones over every character (what LOD off interpolates per frame).
+    fn animated_total(&self) -> u64 {
+        self.chars
+            .iter()
+            .map(|c| self.rig.clips()[c.clip.index()].animated.len() as u64)
+            .sum()
+    }
+
     /// Evaluates a character's full pose at its current time and stamps every bone as updated.
     pub(super) fn evaluate_full(&mut self, d: usize) {
         let span = self.span(d);
@@ -173,9 +181,13 @@ impl Crowd {
             };
         }
         let budget = match lod {
+            // A budget that covers every animated bone takes LOD off's path (one block pass per
+            // character, no scores): the budget mode never does more work than LOD off.
             LodMode::Budget {
                 bone_updates_per_frame,
-            } => Some(self.budget_cut(bone_updates_per_frame)),
+            } if (bone_updates_per_frame as u64) < self.animated_total() => {
+                Some(self.budget_cut(bone_updates_per_frame))
+            }
             _ => None,
         };
         let mut stats = FrameStats::default();
