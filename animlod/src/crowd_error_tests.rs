@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use glam::{Quat, Vec3};
+use glam::{Mat4, Quat, Vec3};
 
 use super::*;
 use crate::build::tests::asset;
@@ -12,6 +12,15 @@ use crate::skeleton::Skeleton;
 use crate::skeleton::tests::bone;
 use crate::{ClipId, LodMode, Rig};
 use salience::View;
+
+/// Every rig in assets/gltf.
+const BUNDLED: [&str; 5] = [
+    "GDQuest_GDBot.glb",
+    "Fox.glb",
+    "RobotExpressive.glb",
+    "Godot_PlatformerRobot.glb",
+    "SimpleSkin.gltf",
+];
 
 /// A view from `distance` units in front of the origin, looking at a point 1 unit up.
 fn view_at(distance: f32) -> View {
@@ -102,13 +111,7 @@ fn error_bound_holds_on_every_bundled_rig_with_tips() {
     // assets/gltf, every clip, near and far: held chains sum their drifts, so the bound holds at
     // every point (up to the chord-for-arc approximation of the hold rates).
     let mut report = String::new();
-    for file in [
-        "GDQuest_GDBot.glb",
-        "Fox.glb",
-        "RobotExpressive.glb",
-        "Godot_PlatformerRobot.glb",
-        "SimpleSkin.gltf",
-    ] {
+    for file in BUNDLED {
         let rig = Arc::new(crate::build::import_path(&asset(file)).unwrap());
         for ci in 0..rig.clips().len().min(4) {
             let clip = ClipId::new(ci);
@@ -242,5 +245,51 @@ fn a_budget_covering_every_bone_does_what_lod_off_does() {
             off.model_matrices(a).unwrap(),
             budget.model_matrices(b).unwrap()
         );
+    }
+}
+
+#[test]
+fn bundled_meshes_skin_and_held_characters_keep_their_output() {
+    for file in BUNDLED {
+        let rig = Arc::new(crate::build::import_path(&asset(file)).unwrap());
+        assert!(!rig.meshes().is_empty(), "{file}");
+        let (center, radius) = rig.bounds();
+        let mut c = Crowd::new(rig.clone());
+        let id = c.add_character(Vec3::ZERO, ClipId::new(0)).unwrap();
+        assert!(c.pose_changed(id).unwrap());
+        for mesh in rig.meshes() {
+            let skin = rig.skin(mesh.skin).unwrap();
+            let mut palette = vec![Mat4::IDENTITY; skin.joints.len()];
+            c.skinning_matrices(id, mesh.skin, &mut palette).unwrap();
+            let n = mesh.vertex_count();
+            let (mut p, mut nrm) = (vec![Vec3::NAN; n], vec![Vec3::NAN; n]);
+            crate::SkinningJob {
+                mesh,
+                palette: &palette,
+                positions: &mut p,
+                normals: &mut nrm,
+            }
+            .run()
+            .unwrap();
+            // Skinned vertices are finite, unit normals, and near the rig (a posed limb
+            // reaches at most about one bounding radius past its bind pose).
+            assert!(
+                p.iter().all(|v| v.distance(center) <= 3.0 * radius),
+                "{file}"
+            );
+            assert!(
+                nrm.iter().all(|v| (v.length() - 1.0).abs() < 1e-3),
+                "{file}"
+            );
+            println!("{file}: mesh {:?}, {n} vertices", mesh.name);
+        }
+        // Frozen: no bone moves, so the skinned output of the last frame is reused.
+        c.set_lod(LodMode::Ratio(0.0)).unwrap();
+        c.advance(1.0 / 60.0, &view_at(5.0)).unwrap();
+        assert!(!c.pose_changed(id).unwrap());
+        c.set_lod(LodMode::Off).unwrap();
+        c.advance(1.0 / 60.0, &view_at(5.0)).unwrap();
+        let animated = rig.clip(ClipId::new(0)).unwrap().animated_bone_count();
+        assert_eq!(c.pose_changed(id).unwrap(), animated > 0);
     }
 }

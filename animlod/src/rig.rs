@@ -8,6 +8,7 @@ use crate::build::ImportReport;
 use crate::clip::Clip;
 use crate::error::BuildError;
 use crate::ids::{BoneId, ClipId, SkinId};
+use crate::mesh::SkinnedMesh;
 use crate::priority::SubPriorities;
 use crate::skeleton::Skeleton;
 
@@ -23,13 +24,14 @@ pub struct Skin {
     pub inverse_bind: Vec<Mat4>,
 }
 
-/// A skeleton with its clips, skins and one priority table per clip.
+/// A skeleton with its clips, skins, skinned meshes and one priority table per clip.
 #[derive(Clone, Debug)]
 pub struct Rig {
     pub(crate) skeleton: Skeleton,
     pub(crate) clips: Vec<Clip>,
     pub(crate) skins: Vec<Skin>,
     pub(crate) priorities: Vec<SubPriorities>,
+    pub(crate) meshes: Vec<SkinnedMesh>,
     pub(crate) bounds_center: Vec3,
     pub(crate) bounds_radius: f32,
     pub(crate) report: ImportReport,
@@ -109,6 +111,12 @@ impl Rig {
             .iter()
             .position(|c| c.name() == name)
             .map(ClipId::new)
+    }
+
+    /// The skinned meshes (from glTF: every node with a mesh and a skin), for CPU skinning
+    /// ([`crate::SkinningJob`] with a palette from [`crate::Crowd::skinning_matrices`]).
+    pub fn meshes(&self) -> &[SkinnedMesh] {
+        &self.meshes
     }
 
     /// All skins.

@@ -15,6 +15,7 @@ use glam::{Mat4, Vec3};
 use crate::clip::{Clip, Keys};
 use crate::error::{BuildError, ImportError};
 use crate::ids::BoneId;
+use crate::mesh::SkinnedMesh;
 use crate::rig::{Rig, Skin};
 use crate::skeleton::{BoneDesc, Skeleton};
 
@@ -36,10 +37,47 @@ pub fn rig(skeleton: Skeleton, clips: Vec<Clip>, skins: Vec<Skin>) -> Result<Rig
         clips,
         skins,
         priorities,
+        meshes: Vec::new(),
         bounds_center,
         bounds_radius,
         report: ImportReport::default(),
     })
+}
+
+/// Attaches skinned meshes to a rig (each checked against its skin's joint count) and grows the
+/// rig's bounds to hold their bind-pose vertices, so a rig whose joints all sit at one point
+/// takes its size from its mesh.
+pub fn attach_meshes(rig: &mut Rig, meshes: Vec<SkinnedMesh>) -> Result<(), BuildError> {
+    let mut checked = Vec::with_capacity(meshes.len());
+    for m in meshes {
+        let joints = rig
+            .skins()
+            .get(m.skin.index())
+            .map(|s| s.joints.len())
+            .ok_or_else(|| BuildError::NonFinite {
+                what: format!("mesh {:?}: skin {} does not exist", m.name, m.skin.index()),
+            })?;
+        checked.push(m.validated(joints)?);
+    }
+    let (mut center, mut radius) = rig.bounds();
+    for p in checked.iter().flat_map(|m| &m.positions) {
+        // Grow the sphere just enough to hold p (Ritter's pass).
+        let d = p.distance(center);
+        if d > radius {
+            let grown = 0.5 * (radius + d);
+            center += (*p - center) * ((grown - radius) / d);
+            radius = grown;
+        }
+    }
+    if !(center.is_finite() && radius.is_finite()) {
+        return Err(BuildError::NonFinite {
+            what: "bounds grown to hold the meshes".into(),
+        });
+    }
+    rig.bounds_center = center;
+    rig.bounds_radius = radius;
+    rig.meshes.extend(checked);
+    Ok(())
 }
 
 /// Imports a .glb or .gltf held in memory. A .gltf that references buffer files needs
@@ -128,6 +166,15 @@ pub fn scaled(rig: &Rig, factor: f32) -> Result<Rig, BuildError> {
         .collect();
     let mut out = self::rig(skeleton, clips, skins)?;
     out.set_import_report(*rig.import_report());
+    let meshes = rig
+        .meshes()
+        .iter()
+        .map(|m| SkinnedMesh {
+            positions: m.positions.iter().map(|p| *p * factor).collect(),
+            ..m.clone()
+        })
+        .collect();
+    attach_meshes(&mut out, meshes)?;
     Ok(out)
 }
 

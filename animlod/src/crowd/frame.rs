@@ -112,7 +112,7 @@ impl Crowd {
         let seg =
             self.rig.priorities[self.chars[d].clip.index()].segment_at(self.chars[d].time) as u32;
         let c = &mut self.chars[d];
-        (c.segment, c.prev_segment, c.wrapped) = (seg, seg, false);
+        (c.segment, c.prev_segment, c.wrapped, c.changed) = (seg, seg, false, true);
         let c = *c;
         let locals = &mut self.locals[span.clone()];
         let s = &mut self.scratch;
@@ -203,7 +203,9 @@ impl Crowd {
         self.frame = self.frame.wrapping_add(1);
         let mut d = start;
         for _ in 0..len {
-            stats += self.advance_one(d, budget.map(|b| b.0), &mut partial_left);
+            let st = self.advance_one(d, budget.map(|b| b.0), &mut partial_left);
+            self.chars[d].changed = st.bones_concatenated > 0;
+            stats += st;
             d += 1;
             if d == len {
                 d = 0;

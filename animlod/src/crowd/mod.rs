@@ -95,6 +95,8 @@ struct Character {
     step: f32,
     /// Pixels per unit at the nearest visible point of the bounding sphere (0: invisible).
     near_ppu: f32,
+    /// Whether any model matrix changed in the last advance (or evaluation).
+    changed: bool,
 }
 
 /// Scratch reused every frame (no allocation in the frame loop once warmed up).
@@ -271,6 +273,7 @@ impl Crowd {
             size_px: 0.0,
             step: 0.0,
             near_ppu: 0.0,
+            changed: true,
         });
         let n = self.stride;
         self.locals
@@ -486,6 +489,14 @@ impl Crowd {
                 PrioritySource::HoldError => p.measured(),
             })
             .collect();
+    }
+
+    /// Whether a character's pose changed in the last [`Crowd::advance`] (or since it was
+    /// added, moved to another clip or time). `false` means every bone held: its model
+    /// matrices, skinning palette and skinned vertices from the previous frame are still exact,
+    /// so a host reuses them instead of recomputing.
+    pub fn pose_changed(&self, id: CharacterId) -> Result<bool, CrowdError> {
+        Ok(self.chars[self.dense(id)?].changed)
     }
 
     /// Model-space matrices of a character's bones (skeleton model space; add the character's
