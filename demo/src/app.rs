@@ -11,6 +11,7 @@ use crate::error::DemoError;
 use crate::machine::Machine;
 use crate::net::{self, NetOutcome, NetPlan};
 use crate::paper::{TABLE1, TABLE2_TCSB, THESIS};
+use crate::perception::{self, PerceptionOutcome, PerceptionPlan};
 use crate::progress::Progress;
 use crate::report::{self, Report, SCHEMA, Seconds};
 use crate::{plots, render};
@@ -89,6 +90,10 @@ fn run(
         .section
         .crowd()
         .then(|| CrowdPlan::new(&options.crowd, options.quick));
+    let perception_plan = options
+        .section
+        .perception()
+        .then(|| PerceptionPlan::new(options.quick));
 
     let mut seconds = Seconds::default();
     let mut files: Vec<PathBuf> = Vec::new();
@@ -131,6 +136,24 @@ fn run(
         crowd_outcome = Some(outcome);
     }
 
+    let mut perception_outcome: Option<PerceptionOutcome> = None;
+    if let Some(plan) = &perception_plan {
+        say(
+            out,
+            "== Perception: every strategy on every scene family, on screen (1080-px-high view) ==\n",
+        );
+        let outcome = perception::run(plan, progress)?;
+        seconds.perception = outcome.section.seconds;
+        say(out, &outcome.text);
+        let t = Instant::now();
+        files.push(plots::perception_error_cost(&outcome.section, dir)?);
+        if let Some(movie) = &outcome.movie {
+            files.push(render::perception_movie(movie, dir)?);
+        }
+        seconds.pictures += t.elapsed().as_secs_f64();
+        perception_outcome = Some(outcome);
+    }
+
     let report_path = dir.join("report.json");
     let names: Vec<String> = files
         .iter()
@@ -146,6 +169,7 @@ fn run(
         machine: &machine,
         net: net_outcome.as_ref().map(|o| &o.section),
         crowd: crowd_outcome.as_ref().map(|o| &o.section),
+        perception: perception_outcome.as_ref().map(|o| &o.section),
         files: names.clone(),
         seconds: seconds.clone(),
     };

@@ -1,4 +1,4 @@
-//! The command line, `slod-demo [net|crowd] [options]`, parsed by `clap` (derive) into
+//! The command line, `slod-demo [net|crowd|perception] [options]`, parsed by `clap` (derive) into
 //! [`Options`]. Every bad input gives a message naming the option and what it expects; the
 //! caller prints it with the usage and exits with [`EXIT_USAGE`]. Nothing here panics, whatever
 //! the arguments.
@@ -34,9 +34,11 @@ const USAGE: &str = "\
 slod-demo: simulation and animation level of detail, measured beside the papers
 
 USAGE:
-    slod-demo [OPTIONS]              everything: the swinging net, then the crowd (about a minute)
+    slod-demo [OPTIONS]              everything: the net, the crowd, then perception (about 3 minutes)
     slod-demo net [OPTIONS]          the swinging net only (simulation paper, section 6)
     slod-demo crowd [OPTIONS]        the crowd only (bone-priority thesis, chapter 13)
+    slod-demo perception [OPTIONS]   perception only: every strategy on every scene family,
+                                     on-screen error in pixels (about 90 s)
 
 OPTIONS:
     --out DIR             where report.json, pictures and plots go [default: out]
@@ -64,6 +66,7 @@ EXAMPLES:
     cargo run --release -p slod-demo
     cargo run --release -p slod-demo -- net --size 129 --compression 50%,25%
     cargo run --release -p slod-demo -- crowd --characters 400 --budget 20000 --out runs/budget
+    cargo run --release -p slod-demo -- perception --quick
 ";
 
 /// Which experiments run.
@@ -75,6 +78,8 @@ pub(crate) enum Section {
     Net,
     /// The crowd only.
     Crowd,
+    /// The perception scenes only.
+    Perception,
 }
 
 impl Section {
@@ -84,6 +89,7 @@ impl Section {
             Section::All => "all",
             Section::Net => "net",
             Section::Crowd => "crowd",
+            Section::Perception => "perception",
         }
     }
 
@@ -95,6 +101,11 @@ impl Section {
     /// Whether the crowd runs.
     pub(crate) fn crowd(self) -> bool {
         matches!(self, Section::All | Section::Crowd)
+    }
+
+    /// Whether the perception scenes run.
+    pub(crate) fn perception(self) -> bool {
+        matches!(self, Section::All | Section::Perception)
     }
 }
 
@@ -169,7 +180,7 @@ fn usage_error(message: String) -> DemoError {
 /// One word without a leading `-`: a command, or `help`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Word {
-    /// `net`, `crowd` or `all`.
+    /// `net`, `crowd`, `perception` or `all`.
     Run(Section),
     /// `help`, as `--help`.
     Help,
@@ -297,6 +308,14 @@ pub(crate) fn parse(args: &[String]) -> Result<Parsed, DemoError> {
             "`{o}` is a net option; the `crowd` command does not run the net"
         )));
     }
+    if section == Section::Perception
+        && let Some(o) =
+            last_given(&matches, &NET_OPTIONS).or_else(|| last_given(&matches, &CROWD_OPTIONS))
+    {
+        return Err(usage_error(format!(
+            "`{o}` is a net or crowd option; the `perception` command takes only --out and --quick"
+        )));
+    }
     if let (Section::Net, Some(o)) = (section, last_given(&matches, &CROWD_OPTIONS)) {
         return Err(usage_error(format!(
             "`{o}` is a crowd option; the `net` command does not run the crowd"
@@ -383,11 +402,12 @@ fn word(v: &str) -> Result<Word, String> {
     Ok(match v {
         "net" => Word::Run(Section::Net),
         "crowd" => Word::Run(Section::Crowd),
+        "perception" => Word::Run(Section::Perception),
         "all" => Word::Run(Section::All),
         "help" => Word::Help,
         _ => {
             return Err(format!(
-                "unknown command `{v}` (expected `net`, `crowd` or none)"
+                "unknown command `{v}` (expected `net`, `crowd`, `perception` or none)"
             ));
         }
     })
@@ -511,6 +531,7 @@ mod tests {
         assert!(!o.quick);
         assert_eq!(o.net, NetOptions::default());
         assert_eq!(run("net").section, Section::Net);
+        assert_eq!(run("perception --quick").section, Section::Perception);
         assert_eq!(run("--quick crowd").section, Section::Crowd);
         assert!(run("crowd --quick").quick);
         assert_eq!(parse(&args("net --help")).unwrap(), Parsed::Help);
@@ -570,6 +591,8 @@ mod tests {
         assert!(error("crowd --size 9").contains("net option"));
         assert!(error("net --characters 9").contains("crowd option"));
         assert!(error("net crowd").contains("two commands"));
+        assert!(error("perception --size 9").contains("perception"));
+        assert!(error("perception --characters 9").contains("perception"));
         assert!(error("bake").contains("unknown command"));
         assert!(error("--quick=yes").contains("no value"));
         assert!(error("net --size 257 --steps 100000").contains("MiB"));

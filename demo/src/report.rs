@@ -10,6 +10,7 @@ use crate::crowd::CrowdSection;
 use crate::error::DemoError;
 use crate::machine::Machine;
 use crate::net::NetSection;
+use crate::perception::PerceptionSection;
 
 /// Version of the report's layout; bumped when a field changes meaning or disappears.
 pub(crate) const SCHEMA: &str = "slod-demo-report/1";
@@ -21,6 +22,8 @@ pub(crate) struct Seconds {
     pub(crate) net: f64,
     /// The crowd section's measurements.
     pub(crate) crowd: f64,
+    /// The perception section's measurements.
+    pub(crate) perception: f64,
     /// Drawing pictures and plots.
     pub(crate) pictures: f64,
     /// Everything, report included.
@@ -32,7 +35,7 @@ pub(crate) struct Seconds {
 pub(crate) struct Report<'a> {
     /// [`SCHEMA`].
     pub(crate) schema: &'static str,
-    /// `all`, `net` or `crowd`.
+    /// `all`, `net`, `crowd` or `perception`.
     pub(crate) command: &'static str,
     /// Whether `--quick` was given.
     pub(crate) quick: bool,
@@ -44,6 +47,8 @@ pub(crate) struct Report<'a> {
     pub(crate) net: Option<&'a NetSection>,
     /// The crowd (null when not run).
     pub(crate) crowd: Option<&'a CrowdSection>,
+    /// Perception scenes and strategies on screen (null when not run).
+    pub(crate) perception: Option<&'a PerceptionSection>,
     /// Files written next to the report (names relative to the output directory).
     pub(crate) files: Vec<String>,
     /// Wall times.

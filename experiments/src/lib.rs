@@ -4,6 +4,9 @@
 //!
 //! - [`net`] — the simulation paper's swinging net (`simulation-lod-treecut-softbody-bswdf.txt`,
 //!   section 6): a full-resolution reference, feedback runs and static cuts, measured.
+//! - [`perception`] — every strategy on every scene family (the net, a close-up of a large
+//!   cloth, off-screen, dolly and orbit, a flag in wind, a curtain on a moving rail, an irregular
+//!   mesh, a 129² net) at the same node count, measured on screen against the reference.
 //! - [`crowd`] — the thesis' crowd test (`animation-lod-bone-priority-thesis.txt`, chapter 13).
 //! - [`rig`] — rigs built for the experiments from real ones ([`rig::grown_to`]).
 //! - [`screen`] — what a viewer sees: on-screen error in pixels through a view, and pops.
@@ -13,6 +16,7 @@
 
 pub mod crowd;
 pub mod net;
+pub mod perception;
 pub mod rig;
 pub mod rng;
 pub mod screen;
