@@ -190,6 +190,12 @@ enum SlodClothBudget
    * moves the node budget to hold it (results then depend on the machine's speed).
    */
   SLOD_CLOTH_BUDGET_TARGET_STEP_MS = 2,
+  /**
+   * `budget_value` is an on-screen error bound in pixels of the world's view (> 0, <= 1e6):
+   * the loop spends the fewest nodes that keep each node's estimated on-screen deviation
+   * under it (the crowd's `SLOD_LOD_MODE_ERROR_BOUND` means the same).
+   */
+  SLOD_CLOTH_BUDGET_MAX_ERROR_PX = 3,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -215,6 +221,10 @@ enum SlodPriorityModel
    * The BSWDF salience alone, as in the paper.
    */
   SLOD_PRIORITY_MODEL_SALIENCE = 1,
+  /**
+   * Screen error plus the node's estimated on-screen deviation in pixels.
+   */
+  SLOD_PRIORITY_MODEL_SCREEN_DEVIATION = 2,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -488,7 +498,8 @@ typedef struct SlodFeedbackDesc {
    */
   uint32_t max_ops;
   /**
-   * Minimum priority gain for moving detail (finite, >= 0): keeps nodes from flickering.
+   * Minimum priority gain for moving detail, as a multiple of the simulated nodes' mean
+   * priority (finite, >= 0; default 1.5): keeps nodes from flickering.
    */
   float hysteresis;
   /**
@@ -509,6 +520,17 @@ typedef struct SlodFeedbackDesc {
    * a world created with one worker thread).
    */
   uint32_t parallel;
+  /**
+   * Weight of the BSWDF's motion salience, in [0, 1e6] (default 1; 0 leaves only the
+   * deformation term).
+   */
+  float motion_weight;
+  /**
+   * 1 (default): the camera shapes the cut; 0: salience and priorities are measured through a
+   * canonical face-on view instead (an ablation; the error-bound budget always uses the
+   * world's view).
+   */
+  uint32_t view_dependent;
 } SlodFeedbackDesc;
 
 /**
@@ -945,7 +967,7 @@ struct SlodClothDesc slod_default_cloth_desc(void);
 
 /**
  * The default feedback settings (the Rust defaults): 30% compression, evaluated every 5 steps,
- * hysteresis 6, at most 64 operations per evaluation, 0.5 s salience memory, deformation weight
+ * hysteresis 1.5 × the mean priority, at most 64 operations per evaluation, 0.5 s salience memory, deformation weight
  * 20, screen-error priority, serial.
  *
  * Returns a value the host owns; change fields, then pass it to `slod_cloth_set_feedback`.

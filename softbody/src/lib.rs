@@ -79,7 +79,7 @@ mod ids;
 mod kernel;
 mod links;
 mod settings;
-mod shape;
+pub mod shape;
 mod tc;
 
 #[cfg(test)]

@@ -19,16 +19,17 @@ const MAX_ITERATIONS: u32 = 24;
 /// Stop when the correction angle (radians) drops below this.
 const TOLERANCE: f32 = 1e-6;
 
-/// Covariance `Σ q rᵀ` of current and rest offsets.
+/// Adds one pair to the covariance `Σ q rᵀ` of current offsets `q` and rest offsets `r`.
 #[inline]
-pub(crate) fn accumulate(a: &mut Mat3, current: Vec3, rest: Vec3) {
+pub fn accumulate(a: &mut Mat3, current: Vec3, rest: Vec3) {
     a.x_axis += current * rest.x;
     a.y_axis += current * rest.y;
     a.z_axis += current * rest.z;
 }
 
-/// The rotation part of `a`, starting from `start`.
-pub(crate) fn rotation_of(a: &Mat3, start: Quat) -> Quat {
+/// The rotation part of `a` (the best rotation mapping rest offsets onto current ones),
+/// iterated from `start` (pass the previous estimate: one or two iterations in steady use).
+pub fn rotation_of(a: &Mat3, start: Quat) -> Quat {
     let mut q = start;
     for _ in 0..MAX_ITERATIONS {
         let r = Mat3::from_quat(q);

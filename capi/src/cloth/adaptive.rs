@@ -275,6 +275,23 @@ impl AdaptiveCloth {
         )?;
         let h = self.body.hierarchy_arc().clone();
         let budget = f.node_budget(h.vertex_count());
+        if !matches!(
+            f.settings.budget,
+            super::feedback::ClothBudget::MaxErrorPx(_)
+        ) {
+            // The hysteresis is a multiple of the simulated nodes' mean priority: priorities
+            // scale with the viewport, the distance and the cloth's motion, so a fixed gain
+            // would freeze a far cloth's cut and let a near one flicker.
+            let active = self.body.cut().active();
+            let mean = active
+                .iter()
+                .map(|n| f.priorities[n.index()] as f64)
+                .sum::<f64>()
+                / active.len().max(1) as f64;
+            let mut e = f.settings.evaluator_settings();
+            e.hysteresis *= mean as f32;
+            f.evaluator.set_settings(e);
+        }
         // The evaluator knows what beginning each operation locks (transitions lock their
         // neighbourhoods), so every operation of the batch begins, in the order given, and the
         // cut stays within the budget after each; a refusal is a bug, reported as an error.

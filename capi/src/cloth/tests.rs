@@ -259,3 +259,132 @@ fn time_budget_moves_the_node_budget() {
     assert!(budget < 33 * 33 / 2, "{budget}");
     assert!(c.body().cut().len() < 33 * 33);
 }
+
+/// The net seen from `distance` times the default camera's distance to its target, on a
+/// 1080-px-high viewport.
+fn camera_at(distance: f32) -> View {
+    let target = Vec3::new(0.0, -0.5, 0.0);
+    let eye = target + (Vec3::new(0.0, 0.6, 3.2) - target) * distance;
+    View::look_at(eye, target, Vec3::Y, 50f32.to_radians(), 1920, 1080).unwrap()
+}
+
+/// Runs a 33×33 net from level 1 with these settings for `steps`, seen from `view`; returns the
+/// mean node count over the second half and the cloth.
+fn run_with(settings: FeedbackSettings, view: &View, steps: u32) -> (f64, AdaptiveCloth) {
+    let mut c = net(33, 1, TreeCutSettings::default());
+    c.set_feedback(Some(settings)).unwrap();
+    let mut nodes = 0.0;
+    for s in 0..steps {
+        c.step(view).unwrap();
+        if s >= steps / 2 {
+            nodes += c.node_count() as f64;
+        }
+    }
+    (nodes / (steps - steps / 2) as f64, c)
+}
+
+/// The error-bound budget spends what the view needs: a tighter bound takes more nodes, the
+/// same bound seen from three times farther away takes fewer, and (after its cold start) the
+/// loop undoes no operation within the undo window.
+#[test]
+fn error_bound_spends_nodes_by_pixels() {
+    let bound = |px| FeedbackSettings {
+        budget: ClothBudget::MaxErrorPx(px),
+        ..FeedbackSettings::default()
+    };
+    let (tight, c_tight) = run_with(bound(2.0), &camera_at(1.0), 200);
+    let (loose, c_loose) = run_with(bound(8.0), &camera_at(1.0), 200);
+    let (far, c_far) = run_with(bound(2.0), &camera_at(3.0), 200);
+    let summary = format!("tight {tight}, loose {loose}, far {far}");
+    assert!(tight > 1.2 * loose, "{summary}");
+    assert!(tight > 1.2 * far, "{summary}");
+    for c in [&c_tight, &c_loose, &c_far] {
+        let s = c.stats();
+        assert!(s.refines + s.coarses > 10, "{summary}: {s:?}");
+        assert!(
+            (s.undone_ops as f64) <= 0.01 * (s.refines + s.coarses) as f64,
+            "{summary}: {s:?}"
+        );
+        c.body().cut().check_invariant(c.hierarchy()).unwrap();
+    }
+}
+
+/// The camera-blind ablation sees through a canonical view: two cloths seen from very different
+/// cameras stay bit-identical; with the camera, they do not.
+#[test]
+fn camera_blind_ignores_the_camera_and_feedback_does_not() {
+    let settings = |view_dependent| FeedbackSettings {
+        budget: ClothBudget::Nodes(300),
+        view_dependent,
+        ..FeedbackSettings::default()
+    };
+    let side = View::look_at(
+        Vec3::new(4.0, -0.3, 0.4),
+        Vec3::new(0.0, -0.5, 0.0),
+        Vec3::Y,
+        0.6,
+        1920,
+        1080,
+    )
+    .unwrap();
+    let (_, a) = run_with(settings(false), &camera_at(1.0), 120);
+    let (_, b) = run_with(settings(false), &side, 120);
+    assert_eq!(a.body().cut().active(), b.body().cut().active());
+    assert_eq!(a.body().particle_positions(), b.body().particle_positions());
+    let (_, c) = run_with(settings(true), &camera_at(1.0), 120);
+    let (_, d) = run_with(settings(true), &side, 120);
+    assert_ne!(c.body().cut().active(), d.body().cut().active());
+}
+
+/// Bad error bounds and motion weights are refused, naming the field, and change nothing.
+#[test]
+fn bad_error_bound_and_motion_weight_are_refused() {
+    let mut c = net(17, 1, TreeCutSettings::default());
+    let good = FeedbackSettings {
+        budget: ClothBudget::MaxErrorPx(1.0),
+        ..FeedbackSettings::default()
+    };
+    c.set_feedback(Some(good)).unwrap();
+    for bad in [
+        FeedbackSettings {
+            budget: ClothBudget::MaxErrorPx(0.0),
+            ..good
+        },
+        FeedbackSettings {
+            budget: ClothBudget::MaxErrorPx(f32::NAN),
+            ..good
+        },
+        FeedbackSettings {
+            budget: ClothBudget::MaxErrorPx(-1.0),
+            ..good
+        },
+        FeedbackSettings {
+            motion_weight: -0.5,
+            ..good
+        },
+    ] {
+        let e = c.set_feedback(Some(bad)).unwrap_err();
+        assert!(matches!(e, ClothError::Feedback { .. }), "{e}");
+        assert_eq!(c.feedback(), Some(&good));
+    }
+}
+
+/// With the motion weight at 0 only strain drives the cut; it still adapts (the strain-only
+/// ablation is a working loop, not an empty one).
+#[test]
+fn strain_only_still_adapts() {
+    let (_, c) = run_with(
+        FeedbackSettings {
+            budget: ClothBudget::Nodes(300),
+            motion_weight: 0.0,
+            ..FeedbackSettings::default()
+        },
+        &camera_at(1.0),
+        120,
+    );
+    assert!(
+        c.stats().refines + c.stats().coarses > 10,
+        "{:?}",
+        c.stats()
+    );
+}

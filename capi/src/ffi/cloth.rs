@@ -91,6 +91,10 @@ pub enum SlodClothBudget {
     /// `budget_value` is a target wall time per step in milliseconds (> 0, <= 1e6); a controller
     /// moves the node budget to hold it (results then depend on the machine's speed).
     TargetStepMs = 2,
+    /// `budget_value` is an on-screen error bound in pixels of the world's view (> 0, <= 1e6):
+    /// the loop spends the fewest nodes that keep each node's estimated on-screen deviation
+    /// under it (the crowd's `SLOD_LOD_MODE_ERROR_BOUND` means the same).
+    MaxErrorPx = 3,
 }
 
 /// How salience becomes a node's priority (values of `SlodFeedbackDesc::priority`).
@@ -101,6 +105,8 @@ pub enum SlodPriorityModel {
     ScreenError = 0,
     /// The BSWDF salience alone, as in the paper.
     Salience = 1,
+    /// Screen error plus the node's estimated on-screen deviation in pixels.
+    ScreenDeviation = 2,
 }
 
 /// Settings of a cloth's feedback loop. Get one from `slod_default_feedback_desc`.
@@ -117,7 +123,8 @@ pub struct SlodFeedbackDesc {
     pub interval: u32,
     /// Most refine/coarse operations begun per evaluation, 1..=1048576.
     pub max_ops: u32,
-    /// Minimum priority gain for moving detail (finite, >= 0): keeps nodes from flickering.
+    /// Minimum priority gain for moving detail, as a multiple of the simulated nodes' mean
+    /// priority (finite, >= 0; default 1.5): keeps nodes from flickering.
     pub hysteresis: f32,
     /// Salience memory in seconds, in [0, 1e4] (0 turns it off).
     pub memory_seconds: f32,
@@ -129,6 +136,13 @@ pub struct SlodFeedbackDesc {
     /// 1 splits the salience evaluation over the world's worker threads, 0 does not (ignored by
     /// a world created with one worker thread).
     pub parallel: u32,
+    /// Weight of the BSWDF's motion salience, in [0, 1e6] (default 1; 0 leaves only the
+    /// deformation term).
+    pub motion_weight: f32,
+    /// 1 (default): the camera shapes the cut; 0: salience and priorities are measured through a
+    /// canonical face-on view instead (an ablation; the error-bound budget always uses the
+    /// world's view).
+    pub view_dependent: u32,
 }
 
 /// The default cloth: the paper's swinging net (65×65 vertices 2 m wide, 1 kg, horizontal in
@@ -161,7 +175,7 @@ pub extern "C" fn slod_default_cloth_desc() -> SlodClothDesc {
 }
 
 /// The default feedback settings (the Rust defaults): 30% compression, evaluated every 5 steps,
-/// hysteresis 6, at most 64 operations per evaluation, 0.5 s salience memory, deformation weight
+/// hysteresis 1.5 × the mean priority, at most 64 operations per evaluation, 0.5 s salience memory, deformation weight
 /// 20, screen-error priority, serial.
 ///
 /// Returns a value the host owns; change fields, then pass it to `slod_cloth_set_feedback`.
@@ -172,6 +186,7 @@ pub extern "C" fn slod_default_feedback_desc() -> SlodFeedbackDesc {
         ClothBudget::Nodes(n) => (SlodClothBudget::Nodes, n as f64),
         ClothBudget::Compression(c) => (SlodClothBudget::Compression, c as f64),
         ClothBudget::TargetStepMs(ms) => (SlodClothBudget::TargetStepMs, ms as f64),
+        ClothBudget::MaxErrorPx(px) => (SlodClothBudget::MaxErrorPx, px as f64),
     };
     SlodFeedbackDesc {
         guard: SLOD_DESC_GUARD,
@@ -185,8 +200,11 @@ pub extern "C" fn slod_default_feedback_desc() -> SlodFeedbackDesc {
         priority: match f.priority {
             PriorityModel::ScreenError => SlodPriorityModel::ScreenError,
             PriorityModel::Salience => SlodPriorityModel::Salience,
+            PriorityModel::ScreenDeviation => SlodPriorityModel::ScreenDeviation,
         } as u32,
         parallel: u32::from(f.parallel),
+        motion_weight: f.motion_weight,
+        view_dependent: u32::from(f.view_dependent),
     }
 }
 
@@ -682,6 +700,15 @@ impl SlodFeedbackDesc {
                 }
                 ClothBudget::TargetStepMs(v as f32)
             }
+            3 => {
+                if !(v.is_finite() && v > 0.0 && v <= 1.0e6) {
+                    return Err(FfiError::invalid(
+                        "desc.budget_value",
+                        format!("error bound {v} px is outside (0, 1e6]"),
+                    ));
+                }
+                ClothBudget::MaxErrorPx(v as f32)
+            }
             k => {
                 return Err(FfiError::invalid(
                     "desc.budget_kind",
@@ -702,6 +729,7 @@ impl SlodFeedbackDesc {
         let priority = match self.priority {
             0 => PriorityModel::ScreenError,
             1 => PriorityModel::Salience,
+            2 => PriorityModel::ScreenDeviation,
             p => {
                 return Err(FfiError::invalid(
                     "desc.priority",
@@ -710,6 +738,8 @@ impl SlodFeedbackDesc {
             }
         };
         check_u32(self.parallel, 0, 1, "desc.parallel")?;
+        in_range(self.motion_weight, 0.0, 1.0e6, "desc.motion_weight")?;
+        check_u32(self.view_dependent, 0, 1, "desc.view_dependent")?;
         let settings = FeedbackSettings {
             interval: self.interval,
             budget,
@@ -719,6 +749,8 @@ impl SlodFeedbackDesc {
             memory_seconds: self.memory_seconds,
             deformation_weight: self.deformation_weight,
             parallel: self.parallel == 1 && parallel_allowed,
+            motion_weight: self.motion_weight,
+            view_dependent: self.view_dependent == 1,
             ..FeedbackSettings::default()
         };
         settings

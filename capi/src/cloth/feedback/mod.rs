@@ -7,6 +7,7 @@
 //! Based on: the simulation-LOD paper (`simulation-lod-treecut-softbody-bswdf.txt`), sections 4–5 (the feedback stage).
 
 mod deformation;
+mod deviation;
 mod memory;
 mod radii;
 mod settings;
@@ -19,6 +20,7 @@ use treecut::{Evaluator, NodeId};
 use super::controller::TimeController;
 use super::error::ClothError;
 use deformation::Strain;
+use deviation::{Deviation, Frame};
 use memory::Memory;
 pub(crate) use radii::node_radii;
 pub use settings::{ClothBudget, FeedbackSettings, PriorityModel, compression_nodes};
@@ -55,6 +57,11 @@ pub(crate) struct Feedback {
     /// Priority per hierarchy node (only active nodes' entries are meaningful).
     pub(crate) priorities: Vec<f32>,
     memory: Memory,
+    deviation: Deviation,
+    /// The node budget [`ClothBudget::MaxErrorPx`] derived at the last measurement.
+    error_budget: Option<usize>,
+    /// Measurements made so far.
+    measurements: u64,
 }
 
 impl Feedback {
@@ -90,6 +97,9 @@ impl Feedback {
             strain: Strain::default(),
             priorities: vec![0.0; hierarchy_len],
             memory: Memory::new(hierarchy_len),
+            deviation: Deviation::new(hierarchy_len),
+            error_budget: None,
+            measurements: 0,
         }
     }
 
@@ -102,6 +112,7 @@ impl Feedback {
                 .controller
                 .as_ref()
                 .map_or(full_nodes, TimeController::budget),
+            ClothBudget::MaxErrorPx(_) => self.error_budget.unwrap_or(full_nodes),
         }
     }
 
@@ -139,8 +150,15 @@ impl Feedback {
             &self.velocities,
             body.particle_masses(),
         )?;
+        let canonical;
+        let seen = if self.settings.view_dependent {
+            view
+        } else {
+            canonical = canonical_view(&self.positions, &self.normals, object.centre, view);
+            &canonical
+        };
         let job = BswdfJob {
-            view,
+            view: seen,
             object,
             params: &self.settings.params,
             nodes: Nodes {
@@ -156,6 +174,10 @@ impl Feedback {
         } else {
             salience::evaluate(&job, &mut self.salience)?;
         }
+        if self.settings.motion_weight != 1.0 {
+            let w = self.settings.motion_weight;
+            self.salience.iter_mut().for_each(|s| *s *= w);
+        }
         if self.settings.deformation_weight > 0.0 {
             self.strain.add_to(
                 body,
@@ -163,8 +185,49 @@ impl Feedback {
                 &mut self.salience,
                 &self.settings.params,
                 self.settings.deformation_weight,
-                view,
+                seen,
             );
+        }
+        let error_bound = match self.settings.budget {
+            ClothBudget::MaxErrorPx(bound) => Some(bound),
+            _ => None,
+        };
+        let deviation = self.settings.priority == PriorityModel::ScreenDeviation;
+        if error_bound.is_some() || deviation {
+            let positions = std::mem::take(&mut self.positions);
+            let velocities = std::mem::take(&mut self.velocities);
+            let dt = body.settings().solver.dt;
+            let blend = body.settings().blend_steps;
+            let frame = Frame {
+                positions: &positions,
+                velocities: &velocities,
+                latency: (self.settings.interval + blend) as f32 * dt,
+                node_radius,
+                view,
+                outside_weight: self.settings.params.outside_view_weight,
+            };
+            let period = self.settings.interval as f32 * dt;
+            let decay = if self.settings.memory_seconds > 0.0 {
+                (-period / self.settings.memory_seconds).exp()
+            } else {
+                0.0
+            };
+            // Cold start: until the loop has watched the cloth for one memory period it has
+            // no history, and a cloth at rest (about to be released, or to be hit by wind)
+            // reads as one that can be merged; merges then wait.
+            let warm = self.measurements as f32 * period >= self.settings.memory_seconds;
+            self.measurements += 1;
+            if let Some(bound) = error_bound {
+                self.error_budget = Some(self.error_priorities(body, &frame, bound, decay, warm));
+            } else {
+                self.deviation
+                    .measure(body, &frame, (&self.offsets, &self.neighbours), decay);
+            }
+            self.positions = positions;
+            self.velocities = velocities;
+            if error_bound.is_some() {
+                return Ok(());
+            }
         }
         let cut = body.cut();
         let h = body.hierarchy();
@@ -183,18 +246,30 @@ impl Feedback {
                 self.priorities[p.index()] = 0.0;
             }
         }
-        let screen = self.settings.priority == PriorityModel::ScreenError;
+        let screen = self.settings.priority != PriorityModel::Salience;
         for (i, &node) in nodes.iter().enumerate() {
             let s = self.salience[i];
             self.memory.store(node, s);
             let px = if screen {
-                view.pixels_per_unit(self.positions[i])
+                seen.pixels_per_unit(self.positions[i])
             } else {
                 1.0
             };
+            let own = if deviation {
+                self.deviation.particle_px[i]
+            } else {
+                0.0
+            };
+            let r_own = node_radius[node.index()];
             let value = |n: NodeId| {
                 if screen {
-                    s * px * node_radius[n.index()]
+                    let r = node_radius[n.index()];
+                    let dev = if r_own > 0.0 {
+                        own * (r / r_own).powi(2)
+                    } else {
+                        0.0
+                    };
+                    s * px * r + dev
                 } else {
                     s
                 }
@@ -216,4 +291,96 @@ impl Feedback {
         }
         Ok(())
     }
+
+    /// [`ClothBudget::MaxErrorPx`]: priorities are estimated on-screen errors in pixels (a
+    /// simulated node's error if kept, a merge candidate's error if merged), and the node budget
+    /// is the cut after refining every node above [`settings::ERROR_BOUND_REFINE`] of the bound
+    /// and merging every candidate under [`settings::ERROR_BOUND_MERGE`] of it.
+    fn error_priorities(
+        &mut self,
+        body: &TreeCutSoftBody,
+        frame: &Frame<'_>,
+        bound: f32,
+        decay: f32,
+        merges: bool,
+    ) -> usize {
+        let (h, cut) = (body.hierarchy(), body.cut());
+        self.deviation
+            .measure(body, frame, (&self.offsets, &self.neighbours), decay);
+        let nodes = body.particle_nodes();
+        let mut budget = cut.len() as i64;
+        for (i, &node) in nodes.iter().enumerate() {
+            let px = self.deviation.particle_px[i];
+            if cut.is_on_cut(node) {
+                self.priorities[node.index()] = px;
+                if px > settings::ERROR_BOUND_REFINE * bound
+                    && !h.is_leaf(node)
+                    && cut.can_refine(h, node).is_ok()
+                {
+                    budget += h.child_count(node) as i64 - 1;
+                }
+            }
+        }
+        for &node in nodes {
+            let Some(parent) = h.parent(node) else {
+                continue;
+            };
+            // Once per parent: from its first child.
+            if h.children(parent).next() != Some(node) {
+                continue;
+            }
+            if cut.is_on_cut(parent) {
+                // A coarse in flight: the parent is virtual, its priority its children's largest.
+                let px = h
+                    .children(parent)
+                    .filter_map(|c| body.particle_of(c))
+                    .map(|p| self.deviation.particle_px[p.index()])
+                    .fold(0.0, f32::max);
+                self.priorities[parent.index()] = px;
+                continue;
+            }
+            // What the parent's own estimate would be: under the smooth-curvature model of the
+            // `deviation` module a node's error grows with its radius squared, so the children's
+            // largest estimate scaled to the parent's radius is the parent's, and refining and
+            // merging are judged by one measure (a just-refined node is not merged back).
+            let rp = frame.node_radius[parent.index()];
+            let px = h
+                .children(parent)
+                .filter_map(|c| {
+                    let p = body.particle_of(c)?;
+                    let rc = frame.node_radius[c.index()];
+                    (rc > 0.0).then(|| self.deviation.particle_px[p.index()] * (rp / rc).powi(2))
+                })
+                .fold(0.0, f32::max);
+            if !merges {
+                // The evaluator merges only to make room, and there is room; a key above every
+                // refine candidate keeps swaps from merging too.
+                self.priorities[parent.index()] = f32::MAX;
+                continue;
+            }
+            self.priorities[parent.index()] = px;
+            if px < settings::ERROR_BOUND_MERGE * bound && cut.can_coarse(h, parent).is_ok() {
+                budget -= h.child_count(parent) as i64 - 1;
+            }
+        }
+        budget.max(1) as usize
+    }
+}
+
+/// The `camera_blind` ablation's view: the object seen face-on along its mean normal through a
+/// 60° field of view on a 1920 × 1080 viewport, from the distance at which it fills the height.
+/// Nothing of the real camera (pose, field of view, viewport) plays a part; `frame` is only the
+/// fallback for a degenerate cloth.
+fn canonical_view(positions: &[Vec3], normals: &[Vec3], centre: Vec3, frame: &View) -> View {
+    const FOV_Y: f32 = std::f32::consts::FRAC_PI_3;
+    let extent = positions
+        .iter()
+        .map(|p| p.distance(centre))
+        .fold(0.0f32, f32::max)
+        .max(1e-3);
+    let mean: Vec3 = normals.iter().copied().sum();
+    let n = mean.normalize_or(Vec3::Y);
+    let distance = extent / (0.5 * FOV_Y).tan() + extent;
+    let up = if n.y.abs() < 0.9 { Vec3::Y } else { Vec3::Z };
+    View::look_at(centre + n * distance, centre, up, FOV_Y, 1920, 1080).unwrap_or(*frame)
 }

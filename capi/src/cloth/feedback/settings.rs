@@ -19,6 +19,14 @@ pub enum ClothBudget {
     /// the node budget to hold it. Results then depend on the machine's speed, so runs are not
     /// bit-identical.
     TargetStepMs(f32),
+    /// An on-screen error bound in pixels of the frame's [`salience::View`] (> 0, finite): the
+    /// loop spends the fewest nodes that keep every node's estimated on-screen deviation under
+    /// it (see the `deviation` module: refine where a node's estimate exceeds half the bound,
+    /// merge where merging would stay under a quarter of it). The same meaning as the crowd's
+    /// `LodMode::ErrorBound`: pixels a viewer could see, so a farther camera needs fewer nodes.
+    /// The bound is on the estimate; the error measured against a full-resolution reference is
+    /// reported by the experiments.
+    MaxErrorPx(f32),
 }
 
 /// How salience becomes a node's priority.
@@ -33,6 +41,10 @@ pub enum PriorityModel {
     /// first is what spends a node budget best (measured in `cloth::tests`).
     #[default]
     ScreenError,
+    /// [`PriorityModel::ScreenError`] plus the node's estimated on-screen deviation in pixels
+    /// (what the error-bound budget uses: bending, latency and stretch; see the `deviation`
+    /// module). Both terms are pixels, so no weight relates them.
+    ScreenDeviation,
 }
 
 /// Settings of the feedback loop.
@@ -42,11 +54,15 @@ pub struct FeedbackSettings {
     pub interval: u32,
     /// What the cut may spend.
     pub budget: ClothBudget,
-    /// Minimum priority gain for swapping detail from one place to another (≥ 0, same unit as
-    /// the priorities: salience-weighted pixels with [`PriorityModel::ScreenError`]). Keeps
-    /// nodes from being refined and coarsened back and forth. Default 6: on the swinging net,
-    /// 2 undid 1–12% of the operations within 30 steps, 4–5 about 1.5%, 6 none, with the same
-    /// error (measured with `run_net`).
+    /// Minimum priority gain for swapping detail from one place to another, as a multiple of
+    /// the simulated nodes' mean priority at that evaluation (≥ 0). Keeps nodes from being
+    /// refined and coarsened back and forth. Relative because priorities scale with the
+    /// viewport, the camera's distance and the cloth's motion: the earlier absolute gain (6
+    /// salience-weighted px, fitted to the swinging net on a 720-px view) froze the cut of the
+    /// same net seen from three times farther away. Default 1.5: about that gain on the net's
+    /// own view (mean priority ≈ 4 on a 1080-px view), with no operation undone within 30 steps
+    /// there, at 3× the distance, and in the perception scenes (see `slod_experiments`).
+    /// Ignored by [`ClothBudget::MaxErrorPx`], whose hysteresis is a fraction of its bound.
     pub hysteresis: f32,
     /// Most operations begun per evaluation (≥ 1); bounds the work of one step.
     pub max_ops: usize,
@@ -72,6 +88,15 @@ pub struct FeedbackSettings {
     /// moved is still being looked at; coarsening it at the turning point and refining it again
     /// on the way back would be both wasted work and visible popping. Default 0.5 s.
     pub memory_seconds: f32,
+    /// Weight of the BSWDF's motion salience (≥ 0, default 1; 0 leaves only the deformation
+    /// term: the `strain_only` ablation).
+    pub motion_weight: f32,
+    /// Whether the camera shapes the cut (default true). False is the `camera_blind` ablation:
+    /// salience and priorities are measured through a canonical view (the object seen face-on,
+    /// filling the view's height) instead of the frame's, so distance, facing and frustum have
+    /// no effect. [`ClothBudget::MaxErrorPx`] always uses the frame's view: its bound is in its
+    /// pixels.
+    pub view_dependent: bool,
     /// Split the salience evaluation over the rayon pool when there are enough nodes.
     pub parallel: bool,
     /// Controller settings for [`ClothBudget::TargetStepMs`].
@@ -83,7 +108,7 @@ impl Default for FeedbackSettings {
         FeedbackSettings {
             interval: 5,
             budget: ClothBudget::Compression(0.3),
-            hysteresis: 6.0,
+            hysteresis: 1.5,
             max_ops: 64,
             priority: PriorityModel::default(),
             params: BswdfParams {
@@ -92,6 +117,8 @@ impl Default for FeedbackSettings {
             },
             deformation_weight: 20.0,
             memory_seconds: 0.5,
+            motion_weight: 1.0,
+            view_dependent: true,
             parallel: false,
             controller: ControllerSettings::default(),
         }
@@ -101,12 +128,20 @@ impl Default for FeedbackSettings {
 impl FeedbackSettings {
     /// The evaluator settings these feedback settings imply.
     pub(crate) fn evaluator_settings(&self) -> EvaluatorSettings {
+        if let ClothBudget::MaxErrorPx(bound) = self.budget {
+            // Priorities are pixels of estimated error; a swap must gain a quarter of the bound.
+            return EvaluatorSettings {
+                hysteresis: ERROR_BOUND_HYSTERESIS * bound,
+                max_ops: self.max_ops,
+                merge_key: MergeKey::Parent,
+            };
+        }
         EvaluatorSettings {
             hysteresis: self.hysteresis,
             max_ops: self.max_ops,
             merge_key: match self.priority {
                 PriorityModel::Salience => MergeKey::MaxOfChildren,
-                PriorityModel::ScreenError => MergeKey::Parent,
+                PriorityModel::ScreenError | PriorityModel::ScreenDeviation => MergeKey::Parent,
             },
         }
     }
@@ -126,6 +161,9 @@ impl FeedbackSettings {
         if !(self.memory_seconds.is_finite() && self.memory_seconds >= 0.0) {
             return bad("memory_seconds", "must be finite and >= 0");
         }
+        if !(self.motion_weight.is_finite() && self.motion_weight >= 0.0) {
+            return bad("motion_weight", "must be finite and >= 0");
+        }
         if self.max_ops == 0 {
             return bad("max_ops", "must be >= 1");
         }
@@ -136,6 +174,9 @@ impl FeedbackSettings {
             }
             ClothBudget::TargetStepMs(ms) if !(ms.is_finite() && ms > 0.0) => {
                 return bad("budget", "target step time must be finite and > 0 ms");
+            }
+            ClothBudget::MaxErrorPx(px) if !(px.is_finite() && px > 0.0) => {
+                return bad("budget", "error bound must be finite and > 0 px");
             }
             _ => {}
         }
@@ -157,6 +198,18 @@ impl FeedbackSettings {
         Ok(())
     }
 }
+
+/// [`ClothBudget::MaxErrorPx`]: a node is refined when its estimated error exceeds this
+/// fraction of the bound (the estimate is not the measured error: the margin absorbs what it
+/// misses, such as the coarse cut's slightly different dynamics).
+pub(crate) const ERROR_BOUND_REFINE: f32 = 0.5;
+/// [`ClothBudget::MaxErrorPx`]: a parent is merged when merging would stay under this fraction
+/// of the bound; a quarter of [`ERROR_BOUND_REFINE`], so a node just refined is not merged back
+/// while its held estimate decays (0.5 s memory: a factor 4 takes about 0.7 s, beyond the
+/// 30-step undo window).
+pub(crate) const ERROR_BOUND_MERGE: f32 = 0.125;
+/// [`ClothBudget::MaxErrorPx`]: the evaluator's hysteresis as a fraction of the bound.
+pub(crate) const ERROR_BOUND_HYSTERESIS: f32 = 0.25;
 
 /// The node count a compression (fraction of the full count) allows: rounded, at least 1 (what
 /// [`ClothBudget::Compression`] means).
