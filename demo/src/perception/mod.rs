@@ -19,7 +19,7 @@ use slod_experiments::table::{Table, num, pct};
 use crate::error::DemoError;
 use crate::progress::Progress;
 
-pub(crate) use records::PerceptionSection;
+pub(crate) use records::{PerceptionSection, SceneRecord};
 
 /// The scene recorded as a moving picture: the camera dollies in and orbits, so the cut must
 /// follow the view.
@@ -45,10 +45,7 @@ impl PerceptionPlan {
             } else {
                 SceneScale::Full
             },
-            config: PerceptionConfig {
-                parallel: true,
-                ..PerceptionConfig::default()
-            },
+            config: PerceptionConfig::default(),
             movie_frames: if quick { 8 } else { 50 },
         }
     }
@@ -122,7 +119,7 @@ pub(crate) fn run(
     let section = records::section(&outcomes, &plan.config, start.elapsed().as_secs_f64());
     let text = [
         render_runs(&outcomes, &plan.config),
-        render_equal_error(&section),
+        render_equal_error(&section, &plan.config),
     ]
     .join("\n");
     Ok(PerceptionOutcome {
@@ -245,7 +242,7 @@ fn render_runs(outcomes: &[SceneOutcome], config: &PerceptionConfig) -> String {
 }
 
 /// Equal error: feedback's cost against a uniform cut's at the same p99.
-fn render_equal_error(section: &PerceptionSection) -> String {
+fn render_equal_error(section: &PerceptionSection, config: &PerceptionConfig) -> String {
     let mut t = Table::new(
         "Perception: equal error (uniform cost interpolated at feedback's p99; chaotic scenes over \
          short horizons)",
@@ -285,9 +282,14 @@ fn render_equal_error(section: &PerceptionSection) -> String {
             "no uniform cut as good".into(),
         ]);
     }
+    let mut fractions = config.uniform_fractions.clone();
+    fractions.push(config.compression);
+    fractions.sort_by(f32::total_cmp);
+    let fractions: Vec<String> = fractions.iter().map(|&f| pct(f as f64, 0)).collect();
     t.note(format!(
-        "cost ratio < 1: the feedback loop is cheaper than a uniform cut at the same p99; {}",
-        "the uniform curve runs cuts at 10, 20, 30, 50, 75% of the nodes and the reference (0 px)"
+        "cost ratio < 1: the feedback loop is cheaper than a uniform cut at the same p99; the \
+         uniform curve: cuts at {} of the nodes and the reference (0 px)",
+        fractions.join(", ")
     ));
     t.render()
 }

@@ -22,7 +22,7 @@ fn run(
 
 /// On the paper's net and on the off-screen net, the feedback loop's cut beats a uniform and a
 /// random cut with the same node count in on-screen RMS (measured at 17², 150 steps: net
-/// feedback 7.9 px, uniform 16.0, random 45.1; off-screen 12.4, 31.3, 121).
+/// feedback 7.7 px, uniform 16.0, random 45.1; off-screen 13.5, 31.3, 121).
 #[test]
 fn feedback_beats_uniform_and_random_on_screen_at_equal_nodes() {
     for scene in [
@@ -74,8 +74,8 @@ fn twin_floor_is_small_but_not_zero() {
 }
 
 /// On the chaotic flag, restarting from the reference every 30 steps measures less error than
-/// letting the runs drift apart (17-wide flag, 150 steps: feedback rms 26.8 px over horizons
-/// against 50.3 px over the whole run, uniform 30.0 against 38.9).
+/// letting the runs drift apart (17-wide flag, 150 steps: feedback rms 28.3 px over horizons
+/// against 49.7 px over the whole run, uniform 30.0 against 38.9).
 #[test]
 fn short_horizon_error_is_below_whole_run_error_on_a_chaotic_scene() {
     let flag = scenes::flag(SceneScale::Small).unwrap();
