@@ -1,4 +1,4 @@
-//! The command line, `slod-demo [net|crowd] [options]`, parsed by `clap` (derive) into
+//! The command line, `slod-demo [net|crowd|perception] [options]`, parsed by `clap` (derive) into
 //! [`Options`]. Every bad input gives a message naming the option and what it expects; the
 //! caller prints it with the usage and exits with [`EXIT_USAGE`]. Nothing here panics, whatever
 //! the arguments.
@@ -34,11 +34,14 @@ const USAGE: &str = "\
 slod-demo: simulation and animation level of detail, measured beside the papers
 
 USAGE:
-    slod-demo [OPTIONS]              everything: the swinging net, the crowd, the engine scenes
+    slod-demo [OPTIONS]              everything: the net, the crowd, the engine scenes, then
+                                     perception (about 3 minutes)
     slod-demo net [OPTIONS]          the swinging net only (simulation paper, section 6)
     slod-demo crowd [OPTIONS]        the crowd only (bone-priority thesis, chapter 13)
     slod-demo engine [OPTIONS]       the engine scenes only: colliders, wind, a cape on a walking
                                      character; reference and LOD at 30% of the nodes
+    slod-demo perception [OPTIONS]   perception only: every strategy on every scene family,
+                                     on-screen error in pixels (about 90 s)
 
 OPTIONS:
     --out DIR             where report.json, pictures and plots go [default: out]
@@ -66,6 +69,7 @@ EXAMPLES:
     cargo run --release -p slod-demo
     cargo run --release -p slod-demo -- net --size 129 --compression 50%,25%
     cargo run --release -p slod-demo -- crowd --characters 400 --budget 20000 --out runs/budget
+    cargo run --release -p slod-demo -- perception --quick
 ";
 
 /// Which experiments run.
@@ -79,6 +83,8 @@ pub(crate) enum Section {
     Crowd,
     /// The engine scenes only.
     Engine,
+    /// The perception scenes only.
+    Perception,
 }
 
 impl Section {
@@ -89,6 +95,7 @@ impl Section {
             Section::Net => "net",
             Section::Crowd => "crowd",
             Section::Engine => "engine",
+            Section::Perception => "perception",
         }
     }
 
@@ -105,6 +112,11 @@ impl Section {
     /// Whether the engine scenes run.
     pub(crate) fn engine(self) -> bool {
         matches!(self, Section::All | Section::Engine)
+    }
+
+    /// Whether the perception scenes run.
+    pub(crate) fn perception(self) -> bool {
+        matches!(self, Section::All | Section::Perception)
     }
 }
 
@@ -179,7 +191,7 @@ fn usage_error(message: String) -> DemoError {
 /// One word without a leading `-`: a command, or `help`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Word {
-    /// `net`, `crowd` or `all`.
+    /// `net`, `crowd`, `perception` or `all`.
     Run(Section),
     /// `help`, as `--help`.
     Help,
@@ -307,12 +319,13 @@ pub(crate) fn parse(args: &[String]) -> Result<Parsed, DemoError> {
             "`{o}` is a net option; the `crowd` command does not run the net"
         )));
     }
-    if section == Section::Engine
+    if matches!(section, Section::Engine | Section::Perception)
         && let Some(o) =
             last_given(&matches, &NET_OPTIONS).or_else(|| last_given(&matches, &CROWD_OPTIONS))
     {
         return Err(usage_error(format!(
-            "`{o}` is a net or crowd option; the `engine` command runs neither"
+            "`{o}` is a net or crowd option; the `{}` command runs neither",
+            section.name()
         )));
     }
     if let (Section::Net, Some(o)) = (section, last_given(&matches, &CROWD_OPTIONS)) {
@@ -402,11 +415,12 @@ fn word(v: &str) -> Result<Word, String> {
         "net" => Word::Run(Section::Net),
         "crowd" => Word::Run(Section::Crowd),
         "engine" => Word::Run(Section::Engine),
+        "perception" => Word::Run(Section::Perception),
         "all" => Word::Run(Section::All),
         "help" => Word::Help,
         _ => {
             return Err(format!(
-                "unknown command `{v}` (expected `net`, `crowd`, `engine` or none)"
+                "unknown command `{v}` (expected `net`, `crowd`, `engine`, `perception` or none)"
             ));
         }
     })
@@ -530,6 +544,7 @@ mod tests {
         assert!(!o.quick);
         assert_eq!(o.net, NetOptions::default());
         assert_eq!(run("net").section, Section::Net);
+        assert_eq!(run("perception --quick").section, Section::Perception);
         assert_eq!(run("--quick crowd").section, Section::Crowd);
         assert!(run("crowd --quick").quick);
         assert_eq!(parse(&args("net --help")).unwrap(), Parsed::Help);
@@ -589,6 +604,8 @@ mod tests {
         assert!(error("crowd --size 9").contains("net option"));
         assert!(error("net --characters 9").contains("crowd option"));
         assert!(error("net crowd").contains("two commands"));
+        assert!(error("perception --size 9").contains("perception"));
+        assert!(error("perception --characters 9").contains("perception"));
         assert!(error("bake").contains("unknown command"));
         assert!(error("--quick=yes").contains("no value"));
         assert!(error("net --size 257 --steps 100000").contains("MiB"));

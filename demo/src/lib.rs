@@ -3,8 +3,8 @@
 //! papers' own figures, with pictures of the net, plots and a machine-readable `report.json`.
 //!
 //! The binary is a thin wrapper over [`run_cli`], so the tests run exactly what a user runs.
-//! Modules, in the order a run uses them: `cli` (arguments), `net` and `crowd` (the
-//! experiments), `render` and `plots` (pictures), `report` (JSON) and
+//! Modules, in the order a run uses them: `cli` (arguments), `net`, `crowd` and `perception`
+//! (the experiments), `render` and `plots` (pictures), `report` (JSON) and
 //! `app` (the sequence and the summary).
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -19,6 +19,7 @@ mod machine;
 mod net;
 mod paper;
 mod peer;
+mod perception;
 mod plots;
 mod progress;
 mod render;

@@ -1,6 +1,7 @@
 //! Plots (plotters, bitmap backend): the net's step time against node count (the paper's
-//! Figure 5, with our feedback runs and the paper's Table 2 points), and for the crowd the frame
-//! cost and the pose error against camera distance.
+//! Figure 5, with our feedback runs and the paper's Table 2 points), for the crowd the frame
+//! cost and the pose error against camera distance, and for the perception section on-screen
+//! error against cost per scene.
 
 use std::path::{Path, PathBuf};
 
@@ -12,6 +13,7 @@ use crate::error::DemoError;
 use crate::font;
 use crate::net::NetSection;
 use crate::paper::{TABLE2_BULLET, TABLE2_TCSB, THESIS};
+use crate::perception::PerceptionSection;
 
 const SIZE: (u32, u32) = (1100, 720);
 
@@ -38,8 +40,17 @@ fn plot(
     path: &Path,
     draw: impl FnOnce(&Area<'_>) -> Result<(), String>,
 ) -> Result<PathBuf, DemoError> {
+    plot_sized(path, SIZE, draw)
+}
+
+/// [`plot`] at another size.
+fn plot_sized(
+    path: &Path,
+    size: (u32, u32),
+    draw: impl FnOnce(&Area<'_>) -> Result<(), String>,
+) -> Result<PathBuf, DemoError> {
     font::register().map_err(|e| DemoError::draw(path, e))?;
-    let area = BitMapBackend::new(path, SIZE).into_drawing_area();
+    let area = BitMapBackend::new(path, size).into_drawing_area();
     area.fill(&WHITE).map_err(|e| DemoError::draw(path, e))?;
     draw(&area).map_err(|e| DemoError::draw(path, e))?;
     area.present().map_err(|e| DemoError::draw(path, e))?;
@@ -383,5 +394,136 @@ pub(crate) fn crowd_pose_error(crowd: &CrowdSection, dir: &Path) -> Result<PathB
             .border_style(BLACK)
             .draw()
             .map_err(err)
+    })
+}
+
+/// On-screen p99 error against cost per frame, one panel per scene:
+/// `perception_error_cost.png`. The uniform cuts' curve (line), every strategy at the budget
+/// (markers; short horizons on chaotic scenes), the 1 px line.
+pub(crate) fn perception_error_cost(
+    section: &PerceptionSection,
+    dir: &Path,
+) -> Result<PathBuf, DemoError> {
+    const FLOOR: f64 = 0.01;
+    let path = dir.join("perception_error_cost.png");
+    let cols = 4usize;
+    let rows = section.scenes.len().div_ceil(cols).max(1);
+    let size = (1600, 60 + 420 * rows as u32);
+    let strategies: Vec<&str> = section
+        .scenes
+        .iter()
+        .flat_map(|s| s.runs.iter().map(|r| r.strategy))
+        .filter(|&s| s != "reference" && s != "uniform")
+        .fold(Vec::new(), |mut v, s| {
+            if !v.contains(&s) {
+                v.push(s);
+            }
+            v
+        });
+    plot_sized(&path, size, |area| {
+        let area = area
+            .titled(
+                &format!(
+                    "On-screen error against cost per frame ({} px high view, {} deg): uniform cuts \
+                     (black line) and each strategy at {:.0}% of the nodes",
+                    section.viewport_height_px,
+                    section.fov_y_deg,
+                    section.compression * 100.0
+                ),
+                (font::FAMILY, 22),
+            )
+            .map_err(err)?;
+        let panels = area.split_evenly((rows, cols));
+        for (scene, panel) in section.scenes.iter().zip(panels.iter()) {
+            let horizon = scene.chaotic.then_some(section.horizon_steps);
+            let runs: Vec<_> = scene
+                .runs
+                .iter()
+                .filter(|r| r.horizon_steps == horizon && r.strategy != "reference")
+                .collect();
+            let xs = scene
+                .uniform_curve
+                .iter()
+                .map(|p| p.ms_per_step)
+                .chain(runs.iter().map(|r| r.ms_per_step));
+            let max_ms = xs.fold(1e-3, f64::max);
+            let ys = scene
+                .uniform_curve
+                .iter()
+                .map(|p| p.screen_p99_px)
+                .chain(runs.iter().map(|r| r.screen_p99_px));
+            let max_px = ys.fold(2.0, f64::max);
+            let mut chart = ChartBuilder::on(panel)
+                .caption(
+                    format!(
+                        "{}{}",
+                        scene.name,
+                        if scene.chaotic {
+                            format!(" ({}-step horizons)", section.horizon_steps)
+                        } else {
+                            String::new()
+                        }
+                    ),
+                    (font::FAMILY, 18),
+                )
+                .margin(8)
+                .x_label_area_size(36)
+                .y_label_area_size(52)
+                .build_cartesian_2d(0.0..max_ms * 1.08, (FLOOR..max_px * 2.0).log_scale())
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc("ms per frame")
+                .y_desc("p99 error (px)")
+                .label_style((font::FAMILY, 13))
+                .axis_desc_style((font::FAMILY, 14))
+                .draw()
+                .map_err(err)?;
+            let curve: Vec<(f64, f64)> = scene
+                .uniform_curve
+                .iter()
+                .map(|p| (p.ms_per_step, p.screen_p99_px.max(FLOOR)))
+                .collect();
+            chart
+                .draw_series(LineSeries::new(curve.clone(), BLACK.stroke_width(2)))
+                .map_err(err)?;
+            chart
+                .draw_series(
+                    curve
+                        .iter()
+                        .map(|&p| Cross::new(p, 5, BLACK.stroke_width(2))),
+                )
+                .map_err(err)?;
+            chart
+                .draw_series(DashedLineSeries::new(
+                    [(0.0, 1.0), (max_ms * 1.08, 1.0)],
+                    3,
+                    4,
+                    BLACK.stroke_width(1),
+                ))
+                .map_err(err)?;
+            for r in runs.iter().filter(|r| r.strategy != "uniform") {
+                let k = strategies
+                    .iter()
+                    .position(|&s| s == r.strategy)
+                    .unwrap_or(0);
+                let col = colour(k);
+                let p = (r.ms_per_step, r.screen_p99_px.max(FLOOR));
+                chart
+                    .draw_series(std::iter::once(Circle::new(p, 6, col.filled())))
+                    .map_err(err)?
+                    .label(r.strategy)
+                    .legend(move |(x, y)| Circle::new((x + 8, y), 5, col.filled()));
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .label_font((font::FAMILY, 12))
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .draw()
+                .map_err(err)?;
+        }
+        Ok(())
     })
 }

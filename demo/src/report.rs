@@ -11,6 +11,7 @@ use crate::engine::EngineSection;
 use crate::error::DemoError;
 use crate::machine::Machine;
 use crate::net::NetSection;
+use crate::perception::PerceptionSection;
 
 /// Version of the report's layout; bumped when a field changes meaning or disappears.
 pub(crate) const SCHEMA: &str = "slod-demo-report/1";
@@ -24,6 +25,8 @@ pub(crate) struct Seconds {
     pub(crate) crowd: f64,
     /// The engine section's measurements.
     pub(crate) engine: f64,
+    /// The perception section's measurements.
+    pub(crate) perception: f64,
     /// Drawing pictures and plots.
     pub(crate) pictures: f64,
     /// Everything, report included.
@@ -35,7 +38,7 @@ pub(crate) struct Seconds {
 pub(crate) struct Report<'a> {
     /// [`SCHEMA`].
     pub(crate) schema: &'static str,
-    /// `all`, `net`, `crowd` or `engine`.
+    /// `all`, `net`, `crowd`, `engine` or `perception`.
     pub(crate) command: &'static str,
     /// Whether `--quick` was given.
     pub(crate) quick: bool,
@@ -49,6 +52,8 @@ pub(crate) struct Report<'a> {
     pub(crate) crowd: Option<&'a CrowdSection>,
     /// The engine scenes (null when not run).
     pub(crate) engine: Option<&'a EngineSection>,
+    /// Perception scenes and strategies on screen (null when not run).
+    pub(crate) perception: Option<&'a PerceptionSection>,
     /// Files written next to the report (names relative to the output directory).
     pub(crate) files: Vec<String>,
     /// Wall times.

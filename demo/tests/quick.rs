@@ -436,6 +436,97 @@ fn check_crowd(crowd: &Value) {
     }
 }
 
+/// The `perception` object: the names, every strategy on every scene, and figures that
+/// hold by construction (the reference has no error, whole runs have no horizon).
+fn check_perception(p: &Value) {
+    has(
+        p,
+        &["viewport_height_px", "fov_y_deg", "scenes", "equal_error"],
+    );
+    assert_eq!(f(p, "viewport_height_px"), 1080.0);
+    let scenes = p["scenes"].as_array().unwrap();
+    assert_eq!(scenes.len(), 8);
+    let strategies = [
+        "reference",
+        "feedback",
+        "paper_motion_only",
+        "strain_only",
+        "camera_blind",
+        "uniform",
+        "random",
+        "pin_aware",
+        "error_bound",
+    ];
+    for s in scenes {
+        has(
+            s,
+            &["name", "view_dependent", "chaotic", "twin_floor_px", "runs"],
+        );
+        assert!(s["view_dependent"].is_boolean() && s["chaotic"].is_boolean());
+        has(&s["twin_floor_px"], &["rms", "max"]);
+        let runs = s["runs"].as_array().unwrap();
+        for name in strategies {
+            assert!(
+                runs.iter()
+                    .any(|r| r["strategy"] == name && r["horizon_steps"].is_null()),
+                "{name} missing in {s:#}"
+            );
+        }
+        for r in runs {
+            has(
+                r,
+                &[
+                    "strategy",
+                    "nodes",
+                    "ms_per_step",
+                    "reconstruct_ms",
+                    "screen_rms_px",
+                    "screen_p99_px",
+                    "screen_max_px",
+                    "pop_max_px",
+                    "undone_fraction",
+                    "bound_px",
+                    "horizon_steps",
+                ],
+            );
+            assert_eq!(
+                r["bound_px"].is_null(),
+                r["strategy"] != "error_bound",
+                "{r}"
+            );
+            if r["strategy"] == "reference" {
+                assert_eq!(f(r, "screen_max_px"), 0.0);
+                assert!(r["reconstruct_ms"].is_null());
+            } else {
+                assert!(f(r, "reconstruct_ms") > 0.0, "{r}");
+                assert!(f(r, "screen_rms_px") <= f(r, "screen_max_px"), "{r}");
+            }
+        }
+        if s["chaotic"] == true {
+            assert!(runs.iter().any(|r| r["horizon_steps"].is_number()));
+        }
+    }
+    for e in p["equal_error"].as_array().unwrap() {
+        has(
+            e,
+            &[
+                "name",
+                "p99_px",
+                "feedback_nodes",
+                "feedback_ms",
+                "uniform_nodes",
+                "uniform_ms",
+                "cost_ratio",
+            ],
+        );
+        let ratio = f(e, "feedback_ms") / f(e, "uniform_ms");
+        assert!(
+            (f(e, "cost_ratio") - ratio).abs() < 1e-9 * ratio.max(1.0),
+            "{e}"
+        );
+    }
+}
+
 #[test]
 fn quick_run_writes_a_complete_report_and_real_pictures() {
     let dir = TempDir::new("all");
@@ -447,6 +538,8 @@ fn quick_run_writes_a_complete_report_and_real_pictures() {
         "Table 2",
         "Surface error",
         "Crowd:",
+        "Perception: net",
+        "equal error",
         "Summary",
         "paper",
         "thesis",
@@ -465,6 +558,7 @@ fn quick_run_writes_a_complete_report_and_real_pictures() {
             "machine",
             "net",
             "crowd",
+            "perception",
             "files",
             "seconds",
         ],
@@ -489,9 +583,13 @@ fn quick_run_writes_a_complete_report_and_real_pictures() {
         ],
     );
     assert!(f(&r["machine"], "logical_cores") >= 1.0);
-    has(&r["seconds"], &["net", "crowd", "pictures", "total"]);
+    has(
+        &r["seconds"],
+        &["net", "crowd", "perception", "pictures", "total"],
+    );
     check_net(&r["net"]);
     check_crowd(&r["crowd"]);
+    check_perception(&r["perception"]);
 
     let files: Vec<&str> = r["files"]
         .as_array()
@@ -505,9 +603,19 @@ fn quick_run_writes_a_complete_report_and_real_pictures() {
         "net_step_time.png",
         "crowd_frame_cost.png",
         "crowd_pose_error.png",
+        "perception_error_cost.png",
+        "perception_dolly_orbit.png",
     ] {
         assert!(files.contains(&name), "{name} not listed in {files:?}");
     }
+    // The moving picture is an animated PNG with several frames.
+    let movie = png::Decoder::new(BufReader::new(
+        File::open(dir.0.join("perception_dolly_orbit.png")).unwrap(),
+    ))
+    .read_info()
+    .unwrap();
+    let frames = movie.info().animation_control().map_or(0, |a| a.num_frames);
+    assert!(frames > 1, "{frames} frames");
     // Figure 6: a reference, a TreeCut and a links panel per picture step.
     let steps = r["net"]["config"]["picture_steps"]
         .as_array()
@@ -564,6 +672,7 @@ fn each_command_runs_alone() {
     ]);
     assert_eq!(code, 0, "{err}");
     assert!(!out.contains("Table 2"));
+    assert!(!out.contains("Perception:"));
     let r = report(&dir.0);
     assert!(r["net"].is_null());
     let sweeps = r["crowd"]["sweeps"].as_array().unwrap();
@@ -577,6 +686,16 @@ fn each_command_runs_alone() {
     for png in ["crowd_frame_cost.png", "crowd_pose_error.png"] {
         assert_not_blank(&dir.0.join(png));
     }
+
+    let dir = TempDir::new("perception");
+    let (code, out, err) = demo(&["perception", "--quick", "--out", dir.0.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("Perception: net") && !out.contains("Table 2"));
+    let r = report(&dir.0);
+    assert_eq!(r["command"], "perception");
+    assert!(r["net"].is_null() && r["crowd"].is_null());
+    check_perception(&r["perception"]);
+    assert_not_blank(&dir.0.join("perception_error_cost.png"));
 }
 
 #[test]

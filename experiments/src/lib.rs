@@ -6,6 +6,9 @@
 //!   section 6): a full-resolution reference, feedback runs and static cuts, measured.
 //! - [`engine`] — the engine scenes (issue 14): colliders, wind, a cape worn by a walking
 //!   character, at full resolution and at 30% of the nodes.
+//! - [`perception`] — every strategy on every scene family (the net, a close-up of a large
+//!   cloth, off-screen, dolly and orbit, a flag in wind, a curtain on a moving rail, an irregular
+//!   mesh, a 129² net) at the same node count, measured on screen against the reference.
 //! - [`crowd`] — the thesis' crowd test (`animation-lod-bone-priority-thesis.txt`, chapter 13).
 //! - [`rig`] — rigs built for the experiments from real ones ([`rig::grown_to`]).
 //! - [`screen`] — what a viewer sees: on-screen error in pixels through a view, and pops.
@@ -16,6 +19,7 @@
 pub mod crowd;
 pub mod engine;
 pub mod net;
+pub mod perception;
 pub mod rig;
 pub mod rng;
 pub mod screen;

@@ -54,6 +54,18 @@ impl ScreenMeter {
         &self.view
     }
 
+    /// Measures the next frames through `view` (a camera that moves every frame).
+    pub fn set_view(&mut self, view: View) {
+        self.view = view;
+    }
+
+    /// Forgets the previous frame's error vectors, so the next frame counts no pop: for a
+    /// measurement that restarts the run under test (short-horizon error), where the jump is
+    /// the measurement's, not the level of detail's.
+    pub fn restart_sequence(&mut self) {
+        self.previous.iter_mut().for_each(|p| *p = None);
+    }
+
     /// Adds one frame: `reconstructed[i]` against `reference[i]` (same length).
     pub fn frame(&mut self, reconstructed: &[Vec3], reference: &[Vec3]) {
         assert_eq!(

@@ -1,5 +1,5 @@
 //! Cuts chosen without feedback: the static baselines an adaptive cut is compared against
-//! (uniform by level, random), and the general "grow from the root by a key" they share.
+//! (uniform by level, random, near given vertices), and the general "grow by a key" they share.
 //!
 //! These are what a host uses when it wants a fixed level of detail, and what the
 //! experiments use as baselines for the simulation paper's feedback loop
@@ -18,13 +18,24 @@ use crate::{Cut, CutError, Hierarchy, NodeId};
 pub fn grow_cut(
     h: &Hierarchy,
     nodes: usize,
+    key: impl FnMut(NodeId) -> u64,
+) -> Result<Cut, CutError> {
+    grow_cut_from(h, Cut::root(h), nodes, key)
+}
+
+/// [`grow_cut`] starting from `cut` (a valid cut of `h`) instead of the root: refines the
+/// cut's nodes and their descendants, highest `key` first, while the cut stays within `nodes`.
+pub fn grow_cut_from(
+    h: &Hierarchy,
+    mut cut: Cut,
+    nodes: usize,
     mut key: impl FnMut(NodeId) -> u64,
 ) -> Result<Cut, CutError> {
-    let mut cut = Cut::root(h);
     let mut heap = BinaryHeap::new();
-    let root = h.root();
-    if !h.is_leaf(root) {
-        heap.push((key(root), Reverse(root)));
+    for &n in cut.active() {
+        if !h.is_leaf(n) {
+            heap.push((key(n), Reverse(n)));
+        }
     }
     while let Some((_, Reverse(n))) = heap.pop() {
         if cut.len() + h.child_count(n) - 1 > nodes {
@@ -69,6 +80,54 @@ pub fn random_cut(h: &Hierarchy, nodes: usize, seed: u64) -> Result<Cut, CutErro
     grow_cut(h, nodes, |n| keys[n.index()] as u64)
 }
 
+/// A cut of at most `nodes` nodes that spends about `share` of them near `vertices` (finest
+/// vertex indices, e.g. the pinned ones): a uniform cut of `(1 − share) · nodes` nodes, then
+/// refined, nearest first, by each node's rest distance to the closest of `vertices` (the
+/// smallest distance of any vertex it covers), until the budget is spent. A static cut that
+/// knows where a held cloth is strained without simulating it. `share` is clamped to [0, 1];
+/// no `vertices` gives the uniform cut. O(n·depth + n·|vertices|).
+pub fn near_vertices_cut(
+    h: &Hierarchy,
+    nodes: usize,
+    vertices: &[u32],
+    share: f32,
+) -> Result<Cut, CutError> {
+    let share = if share.is_nan() {
+        0.0
+    } else {
+        share.clamp(0.0, 1.0)
+    };
+    let base = ((1.0 - share as f64) * nodes as f64).round() as usize;
+    let cut = uniform_cut(h, base.max(1))?;
+    let rest = h.rest_positions();
+    let targets: Vec<glam::Vec3> = vertices
+        .iter()
+        .filter(|&&v| (v as usize) < h.vertex_count())
+        .map(|&v| rest[h.leaf_of_vertex(v).index()])
+        .collect();
+    if targets.is_empty() {
+        return uniform_cut(h, nodes);
+    }
+    let vertex_distance: Vec<f32> = (0..h.vertex_count())
+        .map(|v| {
+            let p = rest[h.leaf_of_vertex(v as u32).index()];
+            targets
+                .iter()
+                .map(|t| t.distance(p))
+                .fold(f32::INFINITY, f32::min)
+        })
+        .collect();
+    grow_cut_from(h, cut, nodes, |n| {
+        let d = h
+            .vertices(n)
+            .iter()
+            .map(|&v| vertex_distance[v as usize])
+            .fold(f32::INFINITY, f32::min);
+        // Nearer first: non-negative floats order like their bits.
+        u64::from(u32::MAX - d.max(0.0).to_bits())
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -93,6 +152,42 @@ mod tests {
         }
         // The whole budget: the finest cut.
         assert_eq!(uniform_cut(&h, 33 * 33).unwrap().len(), 33 * 33);
+    }
+
+    #[test]
+    fn near_vertices_cut_is_valid_within_budget_and_finer_near_the_vertices() {
+        let h = grid();
+        let spec = GridSpec::horizontal(33, 33, 0.1, 0.01);
+        let corners = [spec.vertex(0, 0), spec.vertex(32, 32)];
+        for nodes in [1, 7, 100, 300, 33 * 33, 10_000] {
+            for share in [0.0, 0.5, 1.0, f32::NAN] {
+                let cut = near_vertices_cut(&h, nodes, &corners, share).unwrap();
+                cut.check_invariant(&h).unwrap();
+                assert!(cut.len() <= nodes.max(1), "{} > {nodes}", cut.len());
+            }
+        }
+        // Half of 300 nodes near two corners: the nodes covering a corner are finer than the
+        // uniform cut's there, and the centre is no finer.
+        let near = near_vertices_cut(&h, 300, &corners, 0.5).unwrap();
+        let uniform = uniform_cut(&h, 300).unwrap();
+        assert!(near.len() > 250, "spent {} of 300", near.len());
+        let level_at = |c: &Cut, v: u32| {
+            let mut n = h.leaf_of_vertex(v);
+            while !c.is_on_cut(n) {
+                n = h.parent(n).unwrap();
+            }
+            h.level(n)
+        };
+        for &v in &corners {
+            assert!(level_at(&near, v) < level_at(&uniform, v), "corner {v}");
+        }
+        let centre = spec.vertex(16, 16);
+        assert!(level_at(&near, centre) >= level_at(&uniform, centre));
+        // Share 0 is the uniform cut; no vertices too.
+        let zero = near_vertices_cut(&h, 300, &corners, 0.0).unwrap();
+        assert_eq!(zero.active(), uniform.active());
+        let none = near_vertices_cut(&h, 300, &[], 0.5).unwrap();
+        assert_eq!(none.active(), uniform.active());
     }
 
     #[test]

@@ -8,6 +8,7 @@
 //! bitmap; written with `png`. Every panel uses the same projection, fitted once to all the
 //! cloths drawn, so positions compare across panels.
 
+mod movie;
 mod raster;
 mod text;
 
@@ -18,6 +19,7 @@ use slod_experiments::net::{NetConfig, NetReport, NetRun, NetRunKind, NetSnapsho
 use softbody::DrawLink;
 
 use crate::error::DemoError;
+pub(crate) use movie::perception_movie;
 pub(crate) use raster::Image;
 use raster::{Raster, ScreenPoint};
 use text::Caption;
@@ -126,7 +128,7 @@ impl Framing {
 }
 
 /// Vertex normals of a `size`×`size` grid surface (area-weighted face normals).
-fn vertex_normals(v: &[Vec3], size: usize) -> Vec<Vec3> {
+pub(super) fn vertex_normals(v: &[Vec3], size: usize) -> Vec<Vec3> {
     let mut n = vec![Vec3::ZERO; v.len()];
     for j in 0..size - 1 {
         for i in 0..size - 1 {

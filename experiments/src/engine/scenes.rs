@@ -148,7 +148,7 @@ fn collider(shape: Shape, transform: Transform, friction: f32) -> ColliderDesc {
 
 /// The GDBot rig from the repository's assets.
 fn gdbot(assets: &Path) -> Result<Arc<Rig>, ClothError> {
-    let rig = Rig::from_gltf_path(&assets.join("GDQuest_GDBot.glb")).map_err(|e| {
+    let rig = animlod::build::import_path(&assets.join("GDQuest_GDBot.glb")).map_err(|e| {
         ClothError::Feedback {
             field: "assets",
             reason: if matches!(e, animlod::ImportError::Io { .. }) {

@@ -1,0 +1,270 @@
+//! Perception that pays, measured on screen: every strategy on every scene family at the same
+//! node count, against the full-resolution reference, in pixels on a 1080-px-high view.
+//!
+//! By subject: [`scenes`] (the scene families and their cameras), [`strategies`] (how each run
+//! chooses its cut), [`measures`] (whole-run and short-horizon on-screen error, the twin floor,
+//! cost per frame) and [`equal`] (the uniform cost at the feedback loop's error). [`run_scene`]
+//! runs one scene; the demo and the tests call it.
+//!
+//! Based on: the simulation paper (`simulation-lod-treecut-softbody-bswdf.txt`, section 6)
+//! for the comparison at equal node count; Koh, Narain, O'Brien, "View-Dependent Adaptive Cloth
+//! Simulation" (SCA 2014) for view-dependent scenes and measuring cost at equal visible error.
+
+mod adapter;
+pub mod equal;
+pub mod measures;
+pub mod scenes;
+pub mod strategies;
+#[cfg(test)]
+mod tests;
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use rayon::prelude::*;
+use slod::cloth::{ClothError, compression_nodes};
+
+pub use equal::{CostPoint, uniform_cost_at};
+pub use measures::{
+    Reference, RunResult, RunSpec, TWIN_PERTURBATION_M, perturbed_twin, record_reference,
+    run_strategy, twin_floor,
+};
+pub use scenes::{FOV_Y_DEG, MEASURE_HEIGHT_PX, MEASURE_WIDTH_PX, Scene, SceneScale};
+pub use strategies::Strategy;
+
+use crate::screen::ScreenError;
+
+/// What the perception experiment runs on each scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PerceptionConfig {
+    /// Fraction of the full node count every strategy gets (the error-bound run chooses its own).
+    pub compression: f32,
+    /// The error-bound strategy's bound, px (> 0).
+    pub bound_px: f32,
+    /// Short-horizon length for chaotic scenes, steps (≥ 1).
+    pub horizon_steps: u32,
+    /// Fractions of the full node count of the uniform cost–error curve (the run at
+    /// `compression` and the reference complete it).
+    pub uniform_fractions: Vec<f32>,
+    /// Run a scene's independent runs on the rayon pool (timings then share the cores).
+    pub parallel: bool,
+}
+
+impl Default for PerceptionConfig {
+    /// 30% of the nodes (the paper's strongest compression), a 1 px bound, horizons of 30
+    /// steps (half a second), uniform cuts at 10, 50 and 75% for the curve (with the run at 30%
+    /// and the reference, five points), sequential (parallel runs share the cores their timings
+    /// measure).
+    fn default() -> Self {
+        PerceptionConfig {
+            compression: 0.3,
+            bound_px: 1.0,
+            horizon_steps: 30,
+            uniform_fractions: vec![0.1, 0.5, 0.75],
+            parallel: false,
+        }
+    }
+}
+
+impl PerceptionConfig {
+    /// Checks every field; the error names the bad one.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        let bad = |field, reason| Err(ClothError::Feedback { field, reason });
+        let fraction = |f: f32| f.is_finite() && f > 0.0 && f <= 1.0;
+        if !fraction(self.compression) {
+            return bad("compression", "must be in (0, 1]");
+        }
+        if !(self.bound_px.is_finite() && self.bound_px > 0.0) {
+            return bad("bound_px", "must be finite and > 0 px");
+        }
+        if self.horizon_steps == 0 {
+            return bad("horizon_steps", "must be >= 1 step");
+        }
+        if !self.uniform_fractions.iter().all(|&f| fraction(f)) {
+            return bad("uniform_fractions", "each must be in (0, 1]");
+        }
+        Ok(())
+    }
+}
+
+/// Equal error on one scene: the feedback run's p99 and cost, and a uniform cut's cost at the
+/// same p99 (interpolated on the uniform curve).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EqualError {
+    /// The feedback run's p99 (short-horizon on chaotic scenes), px.
+    pub p99_px: f64,
+    /// The feedback run's mean nodes.
+    pub feedback_nodes: f64,
+    /// The feedback run's cost per frame, ms.
+    pub feedback_ms: f64,
+    /// The uniform cut's nodes at that p99.
+    pub uniform_nodes: f64,
+    /// The uniform cut's cost per frame at that p99, ms.
+    pub uniform_ms: f64,
+}
+
+impl EqualError {
+    /// Feedback's cost over the uniform cut's at equal p99 (< 1: feedback pays).
+    pub fn cost_ratio(&self) -> f64 {
+        self.feedback_ms / self.uniform_ms
+    }
+}
+
+/// Everything measured on one scene.
+#[derive(Clone, Debug)]
+pub struct SceneOutcome {
+    /// The scene's name.
+    pub name: &'static str,
+    /// Whether the view decides what matters.
+    pub view_dependent: bool,
+    /// Whether the scene is chaotic (short-horizon runs added).
+    pub chaotic: bool,
+    /// Finest vertices (the reference's nodes).
+    pub full_nodes: usize,
+    /// The node budget every strategy got.
+    pub budget_nodes: usize,
+    /// Steps per run.
+    pub steps: u32,
+    /// The twin floor: the reference perturbed by 1 µm against the reference.
+    pub twin_floor: ScreenError,
+    /// Every run: the reference, each strategy over the whole run, and on chaotic scenes each
+    /// strategy over short horizons.
+    pub runs: Vec<RunResult>,
+    /// The uniform cost–error curve (short-horizon on chaotic scenes), the reference last.
+    pub uniform_curve: Vec<CostPoint>,
+    /// Equal error (`None` when no uniform point reaches the feedback run's p99).
+    pub equal_error: Option<EqualError>,
+}
+
+impl SceneOutcome {
+    /// The run of `strategy` measured over the whole run (`horizon` `None`) or short horizons.
+    pub fn run(&self, strategy: Strategy, horizon: Option<u32>) -> Option<&RunResult> {
+        self.runs
+            .iter()
+            .find(|r| r.strategy == strategy && r.horizon_steps == horizon)
+    }
+
+    /// The horizon the scene's headline figures use: short horizons on chaotic scenes.
+    pub fn headline_horizon(&self, config: &PerceptionConfig) -> Option<u32> {
+        self.chaotic.then_some(config.horizon_steps)
+    }
+}
+
+/// Progress of [`run_scene`]: a label, jobs done, jobs in all.
+pub type Progress<'a> = &'a (dyn Fn(&str, usize, usize) + Sync);
+
+enum Job {
+    Run(RunSpec),
+    Curve(RunSpec),
+    Twin,
+}
+
+enum Done {
+    Run(RunResult),
+    Curve(RunResult),
+    Twin(ScreenError),
+}
+
+/// Runs every strategy on `scene` as configured: the reference (keeping states for short
+/// horizons on chaotic scenes), the twin floor, each strategy at the same node count (and over
+/// short horizons on chaotic scenes), the uniform curve, and equal error. Bad settings are
+/// refused before anything runs.
+pub fn run_scene(
+    scene: &Scene,
+    config: &PerceptionConfig,
+    progress: Progress<'_>,
+) -> Result<SceneOutcome, ClothError> {
+    config.validate()?;
+    let full = scene.hierarchy.vertex_count();
+    let budget = compression_nodes(config.compression, full);
+    let horizon = scene.chaotic.then_some(config.horizon_steps);
+    let reference = record_reference(scene, horizon)?;
+    let mut jobs = vec![Job::Twin];
+    let spec = |strategy, nodes, horizon| RunSpec {
+        strategy,
+        nodes,
+        bound_px: config.bound_px,
+        horizon,
+    };
+    for &s in &Strategy::ALL[1..] {
+        jobs.push(Job::Run(spec(s, budget, None)));
+        if horizon.is_some() {
+            jobs.push(Job::Run(spec(s, budget, horizon)));
+        }
+    }
+    for &f in &config.uniform_fractions {
+        let nodes = compression_nodes(f, full);
+        if nodes != budget && nodes < full {
+            jobs.push(Job::Curve(spec(Strategy::Uniform, nodes, horizon)));
+        }
+    }
+    let total = jobs.len() + 1;
+    let done = AtomicUsize::new(1);
+    progress(scene.name, 1, total);
+    let work = |job: &Job| -> Result<Done, ClothError> {
+        let out = match job {
+            Job::Run(s) => Done::Run(run_strategy(scene, &reference, *s, None)?),
+            Job::Curve(s) => Done::Curve(run_strategy(scene, &reference, *s, None)?),
+            Job::Twin => Done::Twin(twin_floor(scene, &reference)?),
+        };
+        progress(scene.name, done.fetch_add(1, Ordering::Relaxed) + 1, total);
+        Ok(out)
+    };
+    let results: Vec<Done> = if config.parallel {
+        jobs.par_iter().map(work).collect::<Result<_, _>>()?
+    } else {
+        jobs.iter().map(work).collect::<Result<_, _>>()?
+    };
+    let mut runs = vec![reference.run];
+    let mut curve = Vec::new();
+    let mut twin = ScreenError::default();
+    for r in results {
+        match r {
+            Done::Run(r) => runs.push(r),
+            Done::Curve(r) => curve.push(r),
+            Done::Twin(t) => twin = t,
+        }
+    }
+    let point = |r: &RunResult| CostPoint {
+        nodes: r.nodes,
+        ms: r.ms_per_step(),
+        p99_px: r.screen.p99_px,
+    };
+    let mut uniform_curve: Vec<CostPoint> = curve.iter().map(point).collect();
+    if let Some(u) = runs
+        .iter()
+        .find(|r| r.strategy == Strategy::Uniform && r.horizon_steps == horizon)
+    {
+        uniform_curve.push(point(u));
+    }
+    uniform_curve.sort_by(|a, b| a.nodes.total_cmp(&b.nodes));
+    uniform_curve.push(CostPoint {
+        nodes: full as f64,
+        ms: reference.run.ms_per_step(),
+        p99_px: 0.0,
+    });
+    let equal_error = runs
+        .iter()
+        .find(|r| r.strategy == Strategy::Feedback && r.horizon_steps == horizon)
+        .and_then(|fb| {
+            let u = uniform_cost_at(&uniform_curve, fb.screen.p99_px)?;
+            Some(EqualError {
+                p99_px: fb.screen.p99_px,
+                feedback_nodes: fb.nodes,
+                feedback_ms: fb.ms_per_step(),
+                uniform_nodes: u.nodes,
+                uniform_ms: u.ms,
+            })
+        });
+    Ok(SceneOutcome {
+        name: scene.name,
+        view_dependent: scene.view_dependent,
+        chaotic: scene.chaotic,
+        full_nodes: full,
+        budget_nodes: budget,
+        steps: scene.steps,
+        twin_floor: twin,
+        runs,
+        uniform_curve,
+        equal_error,
+    })
+}
