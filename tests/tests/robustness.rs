@@ -1407,3 +1407,35 @@ fn twin_cloths_stay_bit_identical_whatever_is_read() {
         }
     }
 }
+
+/// The random-call test's short form again, under valgrind's memcheck: memory errors and
+/// definite leaks fail it (the test harness's own threads leave "possibly lost" blocks at exit,
+/// so those do not count here). The same binary re-runs that one test in a child process with
+/// fewer steps. Skipped with a note where valgrind is missing, except under CI, where it must run.
+#[test]
+fn random_call_sequences_are_memcheck_clean() {
+    if std::env::var_os("SLOD_UNDER_MEMCHECK").is_some() {
+        return; // the child runs only the random-call test itself
+    }
+    let Some(mut cmd) = slod_tests::native::memcheck_failing_on("definite") else {
+        return;
+    };
+    let exe = std::env::current_exe().expect("the test binary's path");
+    cmd.arg(exe)
+        .args([
+            "--exact",
+            "random_call_sequences_never_crash_and_always_report",
+            "--test-threads",
+            "1",
+            "--nocapture",
+        ])
+        .env("SLOD_UNDER_MEMCHECK", "1")
+        .env("SLOD_RANDOM_STEPS", "600")
+        .env("SLOD_RANDOM_SEEDS", "2");
+    let out = slod_tests::native::run(&mut cmd);
+    let stdout = slod_tests::native::assert_memcheck_clean(&out);
+    assert!(
+        stdout.contains("1 passed"),
+        "the random-call test did not run under memcheck:\n{stdout}"
+    );
+}
