@@ -31,6 +31,7 @@ first time, then re-runs itself inside it.
 """
 
 import argparse
+import importlib.metadata
 import json
 import os
 import platform
@@ -161,7 +162,7 @@ def main():
     p.disconnect()
     out = {
         "schema": "slod-peer-bullet/1",
-        "engine": f"pybullet {p.getAPIVersion()} ({PYBULLET}), double precision",
+        "engine": f"pybullet {importlib.metadata.version('pybullet')}, double precision",
         "cpu_model": cpu_model(),
         "measured_unix_s": int(time.time()),
         "cloths": rows,
