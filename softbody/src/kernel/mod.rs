@@ -128,16 +128,39 @@ pub(crate) struct Block {
 }
 
 impl Block {
-    /// Copies lane `from` of `src` into lane `to` of `self`.
+    /// Everything about the link in lane `k`.
     #[inline]
-    pub(crate) fn copy_lane(&mut self, to: usize, src: &Block, from: usize) {
-        self.a[to] = src.a[from];
-        self.b[to] = src.b[from];
-        self.rest[to] = src.rest[from];
-        self.compliance[to] = src.compliance[from];
-        self.weight[to] = src.weight[from];
-        self.lambda[to] = src.lambda[from];
+    pub(crate) fn lane(&self, k: usize) -> Lane {
+        Lane {
+            a: self.a[k],
+            b: self.b[k],
+            rest: self.rest[k],
+            compliance: self.compliance[k],
+            weight: self.weight[k],
+            lambda: self.lambda[k],
+        }
     }
+    /// Puts a link into lane `k`.
+    #[inline]
+    pub(crate) fn set_lane(&mut self, k: usize, l: Lane) {
+        self.a[k] = l.a;
+        self.b[k] = l.b;
+        self.rest[k] = l.rest;
+        self.compliance[k] = l.compliance;
+        self.weight[k] = l.weight;
+        self.lambda[k] = l.lambda;
+    }
+}
+
+/// One lane of a [`Block`] (moved between lanes without copying whole blocks).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Lane {
+    a: u32,
+    b: u32,
+    rest: f32,
+    compliance: f32,
+    weight: f32,
+    lambda: f32,
 }
 
 /// Solves lane `k` of a block alone; the reference arithmetic that every path reproduces.
