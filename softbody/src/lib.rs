@@ -64,6 +64,10 @@
 //! Nodes in transition and all their neighbours are locked in the cut until the end, so no
 //! transition starts next to one in flight. New particles have [`SoftBody::collides`] false until
 //! their transition ends (there is no collision stage yet; the flag is the contract for one).
+//! Particle storage is dense (swap-removal), so after many operations neighbours sit far apart
+//! in memory; once enough particles have come and gone, [`TreeCutSoftBody::step`] puts them
+//! back in spatial order and re-colours the links ([`TreeCutSoftBody::renumber_particles`]: a
+//! permutation of the state; later results differ only by the new solve order).
 //! Pins belong to finest vertices; the node covering a pinned vertex is pinned where that vertex
 //! sits on its anchor (see [`TreeCutSoftBody::pin_vertex`]). [`TreeCutSoftBody::reconstruct`] gives
 //! every finest vertex a position (rigidly carried by its node's shape-matching rotation, blended
