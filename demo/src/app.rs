@@ -117,6 +117,7 @@ fn run(
             &plan.picture_steps,
             dir,
         )?);
+        files.push(plots::net_operation_time(&outcome.section, dir)?);
         files.push(plots::net_step_time(&outcome.section, dir)?);
         seconds.pictures += t.elapsed().as_secs_f64();
         net_outcome = Some(outcome);

@@ -1,4 +1,5 @@
-//! Plots (plotters, bitmap backend): the net's step time against node count (the paper's
+//! Plots (plotters, bitmap backend): the net's TreeCut operation time against node count (the
+//! paper's Figure 4, with linear fits), its step time against node count (the paper's
 //! Figure 5, with our feedback runs and the paper's Table 2 points), for the crowd the frame
 //! cost and the pose error against camera distance, and for the perception section on-screen
 //! error against cost per scene.
@@ -6,6 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 use crate::crowd::CrowdSection;
@@ -61,6 +63,87 @@ fn err(e: impl std::fmt::Display) -> String {
     e.to_string()
 }
 
+type NodesChart<'a, 'b> =
+    ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// A chart with simulated nodes along x from 0 to `max.0` and `y_desc` from 0 to `max.1`.
+fn nodes_chart<'a, 'b>(
+    area: &'a Area<'b>,
+    caption: &str,
+    max: (f64, f64),
+    y_desc: &str,
+) -> Result<NodesChart<'a, 'b>, String> {
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, (font::FAMILY, 24))
+        .margin(16)
+        .x_label_area_size(48)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..max.0, 0.0..max.1)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("simulated nodes")
+        .x_label_formatter(&|x| format!("{x:.0}"))
+        .y_desc(y_desc)
+        .label_style((font::FAMILY, 16))
+        .axis_desc_style((font::FAMILY, 18))
+        .draw()
+        .map_err(err)?;
+    Ok(chart)
+}
+
+/// The series labels in a box at the upper right.
+fn upper_right_legend<'a, 'b: 'a>(chart: &mut NodesChart<'a, 'b>) -> Result<(), String> {
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font((font::FAMILY, 16))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)
+}
+
+/// The paper's Figure 4, measured: `net_operation_time.png` (median time of each TreeCut
+/// operation against the node count, with each operation's least-squares line).
+pub(crate) fn net_operation_time(net: &NetSection, dir: &Path) -> Result<PathBuf, DemoError> {
+    let path = dir.join("net_operation_time.png");
+    let f = &net.figure4;
+    let max_x = f.points.iter().map(|p| p.nodes).fold(1.0, f64::max);
+    let max_y = f.points.iter().map(|p| p.median_us).fold(1e-3, f64::max);
+    plot(&path, |area| {
+        let mut chart = nodes_chart(
+            area,
+            "Time of one TreeCut operation against node count (the simulation paper's Figure 4)",
+            (max_x * 1.05, max_y * 1.3),
+            "µs per operation (median)",
+        )?;
+        for (k, fit) in f.fits.iter().enumerate() {
+            let col = colour(k);
+            let pts: Vec<(f64, f64)> = f
+                .points
+                .iter()
+                .filter(|p| p.operation == fit.operation)
+                .map(|p| (p.nodes, p.median_us))
+                .collect();
+            chart
+                .draw_series(pts.iter().map(|&p| Circle::new(p, 5, col.filled())))
+                .map_err(err)?
+                .label(format!(
+                    "{}: {:.2} µs + {:.3} µs per 100k nodes",
+                    fit.operation, fit.intercept_us, fit.us_per_100k_nodes
+                ))
+                .legend(move |(x, y)| Circle::new((x + 10, y), 5, col.filled()));
+            let line =
+                [0.0, max_x].map(|x| (x, fit.intercept_us + fit.us_per_100k_nodes * x / 1e5));
+            chart
+                .draw_series(DashedLineSeries::new(line, 8, 6, col.stroke_width(1)))
+                .map_err(err)?;
+        }
+        upper_right_legend(&mut chart)
+    })
+}
+
 /// The paper's Figure 5, measured: `net_step_time.png`.
 pub(crate) fn net_step_time(net: &NetSection, dir: &Path) -> Result<PathBuf, DemoError> {
     let path = dir.join("net_step_time.png");
@@ -89,25 +172,12 @@ pub(crate) fn net_step_time(net: &NetSection, dir: &Path) -> Result<PathBuf, Dem
             .collect()
     };
     plot(&path, |area| {
-        let mut chart = ChartBuilder::on(area)
-            .caption(
-                "Time per step against node count (the simulation paper's Figure 5)",
-                (font::FAMILY, 26),
-            )
-            .margin(16)
-            .x_label_area_size(48)
-            .y_label_area_size(70)
-            .build_cartesian_2d(0.0..max_x * 1.05, 0.0..max_y * 1.1)
-            .map_err(err)?;
-        chart
-            .configure_mesh()
-            .x_desc("simulated nodes")
-            .x_label_formatter(&|x| format!("{x:.0}"))
-            .y_desc("ms per step")
-            .label_style((font::FAMILY, 16))
-            .axis_desc_style((font::FAMILY, 18))
-            .draw()
-            .map_err(err)?;
+        let mut chart = nodes_chart(
+            area,
+            "Time per step against node count (the simulation paper's Figure 5)",
+            (max_x * 1.05, max_y * 1.1),
+            "ms per step",
+        )?;
         let plain = series("plain", 1.0);
         chart
             .draw_series(LineSeries::new(plain.clone(), BLACK.stroke_width(2)))
@@ -180,14 +250,7 @@ pub(crate) fn net_step_time(net: &NetSection, dir: &Path) -> Result<PathBuf, Dem
             .legend(move |(x, y)| {
                 Rectangle::new([(x + 5, y - 5), (x + 15, y + 5)], purple.filled())
             });
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font((font::FAMILY, 16))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(err)
+        upper_right_legend(&mut chart)
     })
 }
 

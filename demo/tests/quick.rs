@@ -117,6 +117,7 @@ fn check_net(net: &Value) {
             "runs",
             "table1",
             "table2",
+            "figure4",
             "figure5",
             "experiment_seconds",
             "seconds",
@@ -600,6 +601,7 @@ fn quick_run_writes_a_complete_report_and_real_pictures() {
     for name in [
         "report.json",
         "net_figure6.png",
+        "net_operation_time.png",
         "net_step_time.png",
         "crowd_frame_cost.png",
         "crowd_pose_error.png",

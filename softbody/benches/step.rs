@@ -6,9 +6,14 @@
 //! * `paper`: the seed paper's net, 4266 nodes (a 79×54 grid) with structural links only.
 //!
 //! Each runs once per kernel path this CPU supports (`…/avx512`, `…/avx2`, `…/lanes4`,
-//! `…/scalar`); the throughput is in link-iterations, so `1 / (elements per second)` is the
-//! cost of one link-iteration. Quick run:
+//! `…/scalar`). Times are the thread's CPU time (see `support/cpu_time.rs`: on a shared machine wall
+//! time counts waiting for a core), and the throughput line is CPU nanoseconds per
+//! link-iteration. Quick run:
 //! `cargo bench -p softbody --bench step -- --warm-up-time 1 --measurement-time 2`.
+#[path = "support/cpu_time.rs"]
+mod cpu_time;
+
+use cpu_time::ThreadTime;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use softbody::{GridCloth, KernelPath, SoftBody, SolverSettings};
@@ -42,7 +47,7 @@ fn pinned(mut body: SoftBody, g: &GridCloth) -> SoftBody {
 }
 
 /// Benchmarks one body on every supported kernel path (widest first).
-fn per_path(c: &mut Criterion, name: &str, body: &SoftBody) {
+fn per_path(c: &mut Criterion<ThreadTime>, name: &str, body: &SoftBody) {
     let mut group = c.benchmark_group(name);
     let iterations = u64::from(body.settings().iterations * body.settings().substeps);
     group.throughput(Throughput::Elements(body.link_count() as u64 * iterations));
@@ -56,7 +61,7 @@ fn per_path(c: &mut Criterion, name: &str, body: &SoftBody) {
     group.finish();
 }
 
-fn bench(c: &mut Criterion) {
+fn bench(c: &mut Criterion<ThreadTime>) {
     for n in [65u32, 129] {
         let g = grid(n, n);
         let body = pinned(g.build_bullet(settings()).unwrap(), &g);
@@ -77,5 +82,9 @@ fn bench(c: &mut Criterion) {
     per_path(c, &name, &body);
 }
 
-criterion_group!(benches, bench);
+criterion_group! {
+    name = benches;
+    config = Criterion::default().with_measurement(ThreadTime);
+    targets = bench
+}
 criterion_main!(benches);

@@ -64,12 +64,18 @@
 //! Nodes in transition and all their neighbours are locked in the cut until the end, so no
 //! transition starts next to one in flight. New particles have [`SoftBody::collides`] false until
 //! their transition ends, when they join collision (the paper's section 3.4).
+//! Particle storage is dense (swap-removal), so after many operations neighbours sit far apart
+//! in memory; once enough particles have come and gone, [`TreeCutSoftBody::step`] puts them
+//! back in spatial order and re-colours the links ([`TreeCutSoftBody::renumber_particles`]: a
+//! permutation of the state, contact state included; later results differ only by the new
+//! solve order).
 //!
 //! # Colliders and wind
 //! [`collide`]: planes, spheres, capsules and oriented boxes with thickness and friction, static
 //! or moved by the host, projected once per substep after the links, behind a per-step broad
-//! phase. A TreeCut node's collision radius covers its children. [`wind`]: a gusty field with per-area drag and lift; a TreeCut node carries the area
-//! of the finest triangles it covers, so the total force does not depend on the cut.
+//! phase. A TreeCut node's collision radius covers its children. [`wind`]: a gusty field with
+//! per-area drag and lift; a TreeCut node carries the area of the finest triangles it covers, so
+//! the total force does not depend on the cut.
 //! Pins belong to finest vertices; the node covering a pinned vertex is pinned where that vertex
 //! sits on its anchor (see [`TreeCutSoftBody::pin_vertex`]). [`TreeCutSoftBody::reconstruct`] gives
 //! every finest vertex a position (rigidly carried by its node's shape-matching rotation, blended

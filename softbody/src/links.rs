@@ -61,8 +61,8 @@ impl Batch {
     fn swap_remove(&mut self, i: usize) -> Option<LinkId> {
         let last = self.len - 1;
         let moved = if i != last {
-            let src = self.blocks[last / LANES];
-            self.blocks[i / LANES].copy_lane(i % LANES, &src, last % LANES);
+            let moved = self.blocks[last / LANES].lane(last % LANES);
+            self.blocks[i / LANES].set_lane(i % LANES, moved);
             let id = self.id(last);
             self.ids[i / LANES][i % LANES] = id;
             Some(LinkId::from_raw(id))
@@ -79,8 +79,8 @@ impl Batch {
     /// Removes entry `i` keeping the order of the rest.
     fn ordered_remove(&mut self, i: usize) {
         for k in i..self.len - 1 {
-            let src = self.blocks[(k + 1) / LANES];
-            self.blocks[k / LANES].copy_lane(k % LANES, &src, (k + 1) % LANES);
+            let next = self.blocks[(k + 1) / LANES].lane((k + 1) % LANES);
+            self.blocks[k / LANES].set_lane(k % LANES, next);
             self.ids[k / LANES][k % LANES] = self.id(k + 1);
         }
         self.swap_remove(self.len - 1);

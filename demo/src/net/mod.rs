@@ -1,9 +1,10 @@
 //! The swinging net (the simulation paper's section 6), measured: Table 1 (one TreeCut
-//! operation), Figure 5 (step time against node count), then the experiment itself
+//! operation), Figure 4 (operation time against node count), Figure 5 (step time against node count), then the experiment itself
 //! (`slod_experiments::net::run_net`: a full-resolution reference, feedback runs at several
 //! compressions, uniform and random cuts, a time-budget run), giving Table 2 (step times beside
 //! the paper's and Bullet's) and the surface error of every run against the reference.
 
+mod figure4;
 mod ops;
 mod records;
 mod scaling;
@@ -17,6 +18,7 @@ use crate::cli::NetOptions;
 use crate::error::DemoError;
 use crate::progress::Progress;
 
+pub(crate) use figure4::Figure4;
 pub(crate) use ops::Table1;
 pub(crate) use records::NetSection;
 use records::{config_report, run_report};
@@ -37,6 +39,9 @@ pub(crate) struct NetPlan {
     /// Net side and cycles of Table 1.
     ops_size: u32,
     ops_cycles: usize,
+    /// Net sides and cycles per side of Figure 4.
+    figure4_sizes: Vec<u32>,
+    figure4_cycles: usize,
     /// What Figure 5 measures.
     figure5: Figure5Plan,
     /// Side of the Bullet-like cloth.
@@ -76,6 +81,12 @@ impl NetPlan {
             target_ms: options.target_ms,
             ops_size: if quick { 17 } else { ops::PAPER_SIZE },
             ops_cycles: if quick { 200 } else { 12_000 },
+            figure4_sizes: if quick {
+                vec![9, 17]
+            } else {
+                figure4::SIZES.to_vec()
+            },
+            figure4_cycles: if quick { 50 } else { 1_000 },
             figure5: Figure5Plan {
                 sizes: scaling_sizes,
                 compressions: if quick {
@@ -137,6 +148,12 @@ pub(crate) struct NetOutcome {
 pub(crate) fn run(plan: &NetPlan, progress: Progress) -> Result<NetOutcome, DemoError> {
     let start = Instant::now();
     let table1 = ops::measure(&plan.config, plan.ops_size, plan.ops_cycles, progress)?;
+    let figure4 = figure4::measure(
+        &plan.config,
+        &plan.figure4_sizes,
+        plan.figure4_cycles,
+        progress,
+    )?;
     let figure5 = scaling::measure(&plan.config, &plan.figure5, progress)?;
     let bullet_like = scaling::bullet_like(plan.bullet_size, plan.figure5.steps)?;
 
@@ -184,12 +201,14 @@ pub(crate) fn run(plan: &NetPlan, progress: Progress) -> Result<NetOutcome, Demo
             .collect(),
         table2: table2(&report, &figure5, bullet_like, config.size),
         table1,
+        figure4,
         figure5,
         experiment_seconds: experiment_start.elapsed().as_secs_f64(),
         seconds: start.elapsed().as_secs_f64(),
     };
     let text = [
         section.table1.render(),
+        section.figure4.render(),
         section.figure5.render(),
         render_table2(&section),
         render_errors(&section),

@@ -50,6 +50,58 @@ pub(crate) struct Table1 {
     pub(crate) seconds: f64,
 }
 
+/// The operations, in the paper's order (the slots of [`time_cycles`]'s results).
+pub(crate) const OPERATIONS: [&str; 4] =
+    ["begin-refine", "end-refine", "begin-coarse", "end-coarse"];
+
+/// Per operation (paper's order): every time measured (µs), and the sums of node and link
+/// counts while they ran.
+pub(crate) type CycleTimes = ([Vec<f64>; 4], [(f64, f64); 4]);
+
+/// Runs `cycles` cycles on `body` (at the finest cut, `blend_steps = 0`): each takes the next
+/// node of `order` through begin-coarse, end-coarse, begin-refine, end-refine, timing each half
+/// on its own. `tick(k)` is called every 64 cycles.
+pub(crate) fn time_cycles(
+    body: &mut TreeCutSoftBody,
+    order: &[NodeId],
+    cycles: usize,
+    tick: &mut dyn FnMut(usize),
+) -> Result<CycleTimes, DemoError> {
+    let mut times: [Vec<f64>; 4] = std::array::from_fn(|_| Vec::with_capacity(cycles));
+    let mut counts = [(0f64, 0f64); 4];
+    for k in 0..cycles {
+        let p = order[k % order.len()];
+        // The order of the cycle: begin-coarse, end-coarse, begin-refine, end-refine; stored
+        // in the paper's order (refine, end-refine, coarse, end-coarse).
+        for (slot, phase) in [(2usize, 0u8), (3, 1), (0, 2), (1, 3)] {
+            counts[slot].0 += body.particle_count() as f64;
+            counts[slot].1 += body.link_count() as f64;
+            let t = Instant::now();
+            let ended = match phase {
+                0 => body.begin_coarse(p).map(|()| 1)?,
+                2 => body.begin_refine(p).map(|()| 1)?,
+                _ => body.end_finished(),
+            };
+            times[slot].push(t.elapsed().as_secs_f64() * 1e6);
+            if ended != 1 {
+                return Err(DemoError::Internal(format!(
+                    "a transition with blend_steps = 0 did not end at once (ended {ended})"
+                )));
+            }
+        }
+        if k % 64 == 63 {
+            tick(k + 1);
+        }
+    }
+    Ok((times, counts))
+}
+
+/// Median of `t` (sorted in place); 0 when empty.
+pub(crate) fn median(t: &mut [f64]) -> f64 {
+    t.sort_by(f64::total_cmp);
+    t.get(t.len() / 2).copied().unwrap_or(0.0)
+}
+
 /// Vertices per side of the measured net: 70² = 4,900 nodes, the paper's N.
 pub(crate) const PAPER_SIZE: u32 = 70;
 
@@ -82,49 +134,23 @@ pub(crate) fn measure(
     let mut order: Vec<NodeId> = body.hierarchy().nodes_at_level(1).collect();
     slod_experiments::rng::Rng::new(0x7AB1E1).shuffle(&mut order);
 
-    // Per operation: times (µs), node and link sums.
-    let mut times: [Vec<f64>; 4] = std::array::from_fn(|_| Vec::with_capacity(cycles));
-    let mut counts = [(0f64, 0f64); 4];
     let bar = progress.bar(cycles as u64, "Table 1");
     bar.set_message(format!("TreeCut operations on {size}x{size}"));
-    for k in 0..cycles {
-        let p = order[k % order.len()];
-        // The order of the cycle: begin-coarse, end-coarse, begin-refine, end-refine; stored
-        // in the paper's order (refine, end-refine, coarse, end-coarse).
-        for (slot, phase) in [(2usize, 0u8), (3, 1), (0, 2), (1, 3)] {
-            counts[slot].0 += body.particle_count() as f64;
-            counts[slot].1 += body.link_count() as f64;
-            let t = Instant::now();
-            let ended = match phase {
-                0 => body.begin_coarse(p).map(|()| 1)?,
-                2 => body.begin_refine(p).map(|()| 1)?,
-                _ => body.end_finished(),
-            };
-            times[slot].push(t.elapsed().as_secs_f64() * 1e6);
-            if ended != 1 {
-                return Err(DemoError::Internal(format!(
-                    "a transition with blend_steps = 0 did not end at once (ended {ended})"
-                )));
-            }
-        }
-        if k % 64 == 63 {
-            bar.set_position(k as u64 + 1);
-        }
-    }
+    let (mut times, counts) = time_cycles(&mut body, &order, cycles, &mut |k| {
+        bar.set_position(k as u64);
+    })?;
     bar.finish_and_clear();
-    let names = ["begin-refine", "end-refine", "begin-coarse", "end-coarse"];
     let rows = (0..4)
         .map(|slot| {
             let t = &mut times[slot];
             let n = t.len().max(1) as f64;
             let mean = t.iter().sum::<f64>() / n;
-            t.sort_by(f64::total_cmp);
             OpRow {
-                operation: names[slot],
+                operation: OPERATIONS[slot],
                 nodes: counts[slot].0 / n,
                 links: counts[slot].1 / n,
                 mean_us: mean,
-                median_us: t.get(t.len() / 2).copied().unwrap_or(0.0),
+                median_us: median(t),
                 paper: TABLE1[slot],
             }
         })

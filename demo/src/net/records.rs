@@ -4,7 +4,7 @@
 use serde::Serialize;
 use slod_experiments::net::{NetConfig, NetReport, NetRun, NetRunKind};
 
-use super::{BulletLike, Figure5, NetPlan, Table1};
+use super::{BulletLike, Figure4, Figure5, NetPlan, Table1};
 use crate::peer::PeerBullet;
 
 /// The configuration as recorded in the report.
@@ -165,6 +165,8 @@ pub(crate) struct NetSection {
     pub(crate) table1: Table1,
     /// Table 2.
     pub(crate) table2: Table2,
+    /// Figure 4.
+    pub(crate) figure4: Figure4,
     /// Figure 5.
     pub(crate) figure5: Figure5,
     /// Wall time of the experiment's runs (s).

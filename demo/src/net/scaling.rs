@@ -343,7 +343,7 @@ pub(crate) fn bullet_like(size: u32, steps: u32) -> Result<BulletLike, DemoError
 }
 
 /// Least squares through `(x, y)`: (slope, intercept, R²); None with fewer than two distinct x.
-fn fit(xy: &[(f64, f64)]) -> Option<(f64, f64, f64)> {
+pub(super) fn fit(xy: &[(f64, f64)]) -> Option<(f64, f64, f64)> {
     let n = xy.len() as f64;
     if xy.len() < 2 {
         return None;

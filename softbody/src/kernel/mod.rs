@@ -31,7 +31,18 @@
 //! [`KernelPath`] names the ways a block can be computed: one link at a time ([`KernelPath::Scalar`],
 //! the reference), four at a time with `glam` (SSE2 on x86-64, NEON on aarch64), and on x86-64
 //! eight (AVX2) or sixteen (AVX-512F) at a time, chosen at run time from what the CPU has
-//! ([`KernelPath::detect`]).
+//! ([`KernelPath::detect`]). AVX2 gathers both halves of a block before solving either, so the
+//! core has two independent dependency chains to overlap.
+//!
+//! Why `std::arch` and not a SIMD crate (`pulp`, `wide`, `multiversion`): the kernel needs two
+//! run-time paths and about fifteen value intrinsics (arithmetic, square root, in-lane shuffles,
+//! 128-bit inserts and extracts), which safe `std::arch` gives since Rust 1.87 (1.89 for
+//! AVX-512) without a dependency; particles cross into registers through `glam`'s safe
+//! `Vec4 <-> __m128` conversions and every particle access is a checked slice index. The only
+//! `unsafe` left is the call into a `#[target_feature]` function after the run-time feature
+//! check (two blocks in `x86.rs`), which is exactly what `multiversion` or `pulp` would generate
+//! inside our crate or theirs. Unchecked indexing would save the bounds checks (about a tenth
+//! of the kernel's instructions) at the price of a non-local safety argument; not taken.
 //!
 //! # Determinism across paths
 //! Every path performs the same IEEE-754 single-precision operations in the same order on every
@@ -90,8 +101,9 @@ impl KernelPath {
     /// The fastest supported path: AVX2, else AVX-512F, else four lanes.
     ///
     /// AVX2 comes first because it measured faster than AVX-512F on the machine this was
-    /// tuned on (a Sapphire Rapids Xeon: the kernel is bound by the particle transposes, and
-    /// 512-bit shuffles issue on one port where 256-bit ones have two), see the `step` bench.
+    /// tuned on (a Sapphire Rapids Xeon VM: about 1.9 against 2.9 CPU ns per link-iteration in
+    /// the `step` bench; the VM has no hardware counters to say why — fewer shuffle ports and
+    /// lower clocks for 512-bit work are the usual suspects).
     pub fn detect() -> Self {
         [Self::Avx2, Self::Avx512]
             .into_iter()
@@ -128,16 +140,39 @@ pub(crate) struct Block {
 }
 
 impl Block {
-    /// Copies lane `from` of `src` into lane `to` of `self`.
+    /// Everything about the link in lane `k`.
     #[inline]
-    pub(crate) fn copy_lane(&mut self, to: usize, src: &Block, from: usize) {
-        self.a[to] = src.a[from];
-        self.b[to] = src.b[from];
-        self.rest[to] = src.rest[from];
-        self.compliance[to] = src.compliance[from];
-        self.weight[to] = src.weight[from];
-        self.lambda[to] = src.lambda[from];
+    pub(crate) fn lane(&self, k: usize) -> Lane {
+        Lane {
+            a: self.a[k],
+            b: self.b[k],
+            rest: self.rest[k],
+            compliance: self.compliance[k],
+            weight: self.weight[k],
+            lambda: self.lambda[k],
+        }
     }
+    /// Puts a link into lane `k`.
+    #[inline]
+    pub(crate) fn set_lane(&mut self, k: usize, l: Lane) {
+        self.a[k] = l.a;
+        self.b[k] = l.b;
+        self.rest[k] = l.rest;
+        self.compliance[k] = l.compliance;
+        self.weight[k] = l.weight;
+        self.lambda[k] = l.lambda;
+    }
+}
+
+/// One lane of a [`Block`] (moved between lanes without copying whole blocks).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Lane {
+    a: u32,
+    b: u32,
+    rest: f32,
+    compliance: f32,
+    weight: f32,
+    lambda: f32,
 }
 
 /// Solves lane `k` of a block alone; the reference arithmetic that every path reproduces.

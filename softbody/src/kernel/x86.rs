@@ -52,14 +52,6 @@ fn run_avx512(p: &mut [Vec4], blocks: &mut [Block], inv_h2: f32) {
     }
 }
 
-#[target_feature(enable = "avx2")]
-fn run_avx2(p: &mut [Vec4], blocks: &mut [Block], inv_h2: f32) {
-    for blk in blocks {
-        block_avx2(p, blk, 0, inv_h2);
-        block_avx2(p, blk, 8, inv_h2);
-    }
-}
-
 // ---- AVX-512F: sixteen links ----
 
 #[target_feature(enable = "avx512f")]
@@ -254,16 +246,34 @@ macro_rules! scatter8 {
     }};
 }
 
+/// New λ and new `x, y, z, w` of both ends, for links `o..o + 8` of a block.
+type Solved8 = (__m256, [__m256; 4], [__m256; 4]);
+
 #[target_feature(enable = "avx2")]
 #[inline]
-fn block_avx2(p: &mut [Vec4], blk: &mut Block, o: usize, inv_h2: f32) {
-    let (lambda, na, nb) = solve_registers!(
-        gather8!(p, &blk.a, o), gather8!(p, &blk.b, o), load8(&blk.rest, o),
-        load8(&blk.compliance, o), load8(&blk.weight, o), load8(&blk.lambda, o), inv_h2;
+fn solve8(blk: &Block, o: usize, a: [__m256; 4], b: [__m256; 4], inv_h2: f32) -> Solved8 {
+    solve_registers!(
+        a, b, load8(&blk.rest, o), load8(&blk.compliance, o), load8(&blk.weight, o),
+        load8(&blk.lambda, o), inv_h2;
         _mm256_sub_ps, _mm256_add_ps, _mm256_mul_ps, _mm256_div_ps, _mm256_sqrt_ps,
         _mm256_max_ps, _mm256_set1_ps
-    );
-    store8(lambda, &mut blk.lambda, o);
-    scatter8!(p, &blk.a, o, na);
-    scatter8!(p, &blk.b, o, nb);
+    )
+}
+
+#[target_feature(enable = "avx2")]
+fn run_avx2(p: &mut [Vec4], blocks: &mut [Block], inv_h2: f32) {
+    for blk in blocks {
+        // The two halves are independent (a batch's links share no particle): gathering both
+        // before solving either gives the core two dependency chains to overlap.
+        let (a0, b0) = (gather8!(p, &blk.a, 0), gather8!(p, &blk.b, 0));
+        let (a1, b1) = (gather8!(p, &blk.a, 8), gather8!(p, &blk.b, 8));
+        let (l0, na0, nb0) = solve8(blk, 0, a0, b0, inv_h2);
+        let (l1, na1, nb1) = solve8(blk, 8, a1, b1, inv_h2);
+        store8(l0, &mut blk.lambda, 0);
+        store8(l1, &mut blk.lambda, 8);
+        scatter8!(p, &blk.a, 0, na0);
+        scatter8!(p, &blk.b, 0, nb0);
+        scatter8!(p, &blk.a, 8, na1);
+        scatter8!(p, &blk.b, 8, nb1);
+    }
 }
