@@ -14,7 +14,8 @@ use crate::progress::Progress;
 /// One run as reported.
 #[derive(Clone, Debug, Serialize)]
 pub(crate) struct EngineRunReport {
-    /// `reference`, `lod` (feedback at 30% of the nodes) or `lod_no_contact` (the same without
+    /// `reference`, `lod` (feedback at 30% of the nodes), `lod_join_at_end` (the paper's rule:
+    /// a refine's children join collision when it ends) or `lod_no_contact` (`lod` without
     /// contact raising priorities).
     pub(crate) strategy: &'static str,
     /// Mean simulated nodes per step.
@@ -93,7 +94,7 @@ pub(crate) fn run(quick: bool, progress: Progress) -> Result<EngineOutcome, Demo
     } else {
         EngineConfig::standard(&assets)
     };
-    let runs = config.scenes.len() as u64 * 3 * config.steps as u64;
+    let runs = config.scenes.len() as u64 * 4 * config.steps as u64;
     let bar = progress.bar(runs, "engine");
     let mut done = 0u64;
     let mut last = 0u32;

@@ -585,8 +585,13 @@ impl SoftBody {
                 }
             }
             if colliding {
-                self.colliders
-                    .project(sub, n, &mut self.positions, &self.prev, &mut self.contact);
+                self.colliders.project(
+                    sub,
+                    n,
+                    &mut self.positions,
+                    &mut self.prev,
+                    &mut self.contact,
+                );
             }
             for ((v, x), prev) in self
                 .velocities
@@ -625,6 +630,7 @@ impl SoftBody {
             &self.collides,
             &mut self.contact,
             2.0 * reach + 1e-3,
+            dt,
         );
     }
 

@@ -113,6 +113,26 @@ impl Shape {
         }
     }
 
+    /// The farthest any surface point moves when the shape goes from `a` to `b`: translation
+    /// plus rotation angle times the shape's extent. `None` for a rotating plane (unbounded).
+    pub(crate) fn sweep(&self, a: &Transform, b: &Transform) -> Option<f32> {
+        let moved = a.position.distance(b.position);
+        let angle = a.rotation.angle_between(b.rotation);
+        if angle == 0.0 || !angle.is_finite() {
+            return Some(moved);
+        }
+        let extent = match *self {
+            Shape::Plane => return None,
+            Shape::Sphere { radius } => radius,
+            Shape::Capsule {
+                radius,
+                half_length,
+            } => radius + half_length,
+            Shape::Box { half_extents } => half_extents.length(),
+        };
+        Some(moved + angle * extent)
+    }
+
     /// World-space bounds `(min, max)` of the shape placed by `t`, grown by `margin`.
     pub(crate) fn bounds(&self, t: &Transform, margin: f32) -> (Vec3A, Vec3A) {
         if matches!(self, Shape::Plane) {
