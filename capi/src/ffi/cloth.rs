@@ -361,7 +361,13 @@ pub(crate) fn cloth_error(e: ClothError) -> FfiError {
 }
 
 fn insert(world: &mut SlodWorld, cloth: AdaptiveCloth) -> SlodClothId {
-    world.cloths.insert(ClothEntry { cloth }).into()
+    world
+        .cloths
+        .insert(ClothEntry {
+            cloth,
+            contacts: Default::default(),
+        })
+        .into()
 }
 
 /// Creates a grid cloth (a quadtree hierarchy over `columns × rows` vertices) and writes its id.
@@ -528,6 +534,7 @@ pub unsafe extern "C" fn slod_cloth_step(world: *mut SlodWorld, cloth: SlodCloth
     boundary(|| {
         // SAFETY: caller contract: NULL or a live world used by this thread only.
         let world = unsafe { arg_mut(world, "world") }?;
+        super::collider::follow_character(world, cloth)?;
         let view = world.view;
         let pool = world.pool.as_ref();
         let entry = world.cloths.get_mut(RawId::from(cloth), "cloth")?;
