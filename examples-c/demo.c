@@ -61,6 +61,27 @@ static SlodCamera look_at(float ex, float ey, float ez, float tx, float ty, floa
     return cam;
 }
 
+/* Fetches a cloth's reconstructed finest vertices (size, then copy), as a renderer would: writes
+ * their count, lowers *lowest to the lowest y, returns 1 if all are finite, 0 if not, -1 when
+ * out of memory. */
+static int surface(SlodWorld *world, SlodClothId cloth, size_t *count, float *lowest) {
+    size_t nv = 0;
+    SlodResult sized = slod_cloth_vertex_positions(world, cloth, NULL, 0, &nv);
+    if (sized != SLOD_RESULT_OK) fail("sizing vertex buffer", sized);
+    float(*verts)[3] = malloc((nv ? nv : 1) * sizeof *verts);
+    if (!verts) return -1;
+    size_t written = 0;
+    CHECK(slod_cloth_vertex_positions(world, cloth, verts, nv, &written));
+    int finite = 1;
+    for (size_t i = 0; i < written; ++i) {
+        for (int k = 0; k < 3; ++k) finite &= isfinite(verts[i][k]) ? 1 : 0;
+        if (verts[i][1] < *lowest) *lowest = verts[i][1];
+    }
+    free(verts);
+    *count = written;
+    return finite;
+}
+
 static int run_net(SlodWorld *world, unsigned steps) {
     SlodClothDesc desc = slod_default_cloth_desc();
     desc.columns = 65;
@@ -110,21 +131,11 @@ static int run_net(SlodWorld *world, unsigned steps) {
         }
     }
 
-    /* What a renderer would draw: the reconstructed full-resolution vertices. Size, then copy. */
-    size_t nv = 0;
-    SlodResult sized = slod_cloth_vertex_positions(world, cloth, NULL, 0, &nv);
-    if (sized != SLOD_RESULT_OK) fail("sizing vertex buffer", sized);
-    float(*verts)[3] = malloc(nv * sizeof *verts);
-    if (!verts) return 1;
+    /* What a renderer would draw: the reconstructed full-resolution vertices. */
     size_t written = 0;
-    CHECK(slod_cloth_vertex_positions(world, cloth, verts, nv, &written));
-    int finite = 1;
     float lowest = 0.0f;
-    for (size_t i = 0; i < written; ++i) {
-        for (int k = 0; k < 3; ++k) finite &= isfinite(verts[i][k]) ? 1 : 0;
-        if (verts[i][1] < lowest) lowest = verts[i][1];
-    }
-    free(verts);
+    int finite = surface(world, cloth, &written, &lowest);
+    if (finite < 0) return 1;
 
     /* Debug links with their blend weights. */
     size_t nl = 0;
@@ -342,21 +353,13 @@ static int run_cape(SlodWorld *world, const char *rig_path, unsigned steps) {
         collision_ms += cs.collision_ms;
     }
     size_t nv = 0;
-    CHECK(slod_cloth_vertex_positions(world, cape, NULL, 0, &nv));
-    float(*v)[3] = malloc((nv ? nv : 1) * sizeof *v);
-    if (!v) return 1;
-    size_t got = 0;
-    CHECK(slod_cloth_vertex_positions(world, cape, v, nv, &got));
-    int finite = 1;
     float lowest = 1e9f;
-    for (size_t i = 0; i < got; ++i) {
-        for (int k = 0; k < 3; ++k) finite &= isfinite(v[i][k]) ? 1 : 0;
-        if (v[i][1] < lowest) lowest = v[i][1];
-    }
-    free(v);
+    int finite = surface(world, cape, &nv, &lowest);
+    if (finite < 0) return 1;
     const double sn = steps ? (double)steps : 1.0;
-    printf("cape steps %u colliders %u touching %.1f collision_ms %.3f finite %d lowest %.3f\n",
-           steps, colliders, (double)touching / sn, collision_ms / sn, finite, lowest);
+    printf("cape steps %u vertices %zu colliders %u touching %.1f collision_ms %.3f finite %d "
+           "lowest %.3f\n",
+           steps, nv, colliders, (double)touching / sn, collision_ms / sn, finite, lowest);
     CHECK(slod_cloth_destroy(world, cape));
     CHECK(slod_crowd_destroy(world, crowd));
     CHECK(slod_rig_destroy(world, rig));
