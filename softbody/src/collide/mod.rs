@@ -44,6 +44,8 @@ mod tests;
 
 pub use shape::{Shape, Transform};
 
+use shape::Placed;
+
 use crate::error::SoftBodyError;
 use glam::{Vec3, Vec3A, Vec4};
 use slod_core::{Arena, Handle};
@@ -314,6 +316,7 @@ impl Colliders {
                 continue;
             };
             let reach_all = c.desc.thickness + reach + sweep;
+            let placed = Placed::new(&c.desc.shape, &c.start);
             for (i, ((x, &col), &r)) in positions
                 .iter()
                 .zip(collides)
@@ -324,7 +327,7 @@ impl Colliders {
                 if !col || x.w == 0.0 || p.cmplt(c_lo).any() || p.cmpgt(c_hi).any() {
                     continue;
                 }
-                let (d, _) = c.desc.shape.distance(c.start.inverse_apply(p));
+                let (d, _) = placed.distance(p);
                 if d < reach_all + r {
                     c.candidates.push(i as u32);
                 }
@@ -365,14 +368,12 @@ impl Colliders {
             } else {
                 (c.desc.transform, c.desc.transform)
             };
-            let shape = c.desc.shape;
+            let placed = Placed::new(&c.desc.shape, &to);
             let mu = c.desc.friction;
             for &i in &c.candidates {
                 let i = i as usize;
                 let x = Vec3A::from_vec4(positions[i]);
-                let local = to.inverse_apply(x);
-                let (d, n_local) = shape.distance(local);
-                let n = to.rotate(n_local);
+                let (d, n) = placed.distance(x);
                 let depth = c.desc.thickness + particles.radius[i] - d;
                 if depth <= 0.0 {
                     continue;
@@ -381,6 +382,7 @@ impl Colliders {
                 let mut y = x + n * depth;
                 // Motion of the surface point under the particle over the substep.
                 let surface = if moving {
+                    let local = to.inverse_apply(x);
                     to.apply(local) - from.apply(local)
                 } else {
                     Vec3A::ZERO
