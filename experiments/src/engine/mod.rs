@@ -12,7 +12,8 @@
 //! any collider's bare shape (thickness not counted) over all steps, its mean step time and the
 //! part of it spent in contact (broad phase and projections).
 //!
-//! Strategies: `reference` (every node), `lod` (feedback at 30% of the nodes, contact raising
+//! Strategies: `reference` (every node), `reference_twin` (the reference with one node nudged by
+//! 0.1 mm: its error is the scene's chaos, the floor for every other run), `lod` (feedback at 30% of the nodes, contact raising
 //! priorities), `lod_join_at_end` (the same with the paper's rule that a refine's children join
 //! collision only when it ends), `lod_no_contact` (`lod` without contact priorities).
 
@@ -25,7 +26,7 @@ use std::time::Instant;
 
 use glam::Vec3;
 use slod::cloth::{ClothBudget, ClothError, ContactSettings, FeedbackSettings};
-use softbody::{TransitionCollision, TreeCutError};
+use softbody::{ParticleId, TransitionCollision, TreeCutError};
 use treecut::{Cut, uniform_cut};
 
 use crate::screen::{ScreenError, ScreenMeter};
@@ -70,7 +71,7 @@ impl EngineConfig {
 /// One run of a scene.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EngineRun {
-    /// `reference`, `lod`, `lod_join_at_end` or `lod_no_contact`.
+    /// `reference`, `reference_twin`, `lod`, `lod_join_at_end` or `lod_no_contact`.
     pub strategy: &'static str,
     /// Mean simulated nodes per step.
     pub nodes: f64,
@@ -106,7 +107,7 @@ pub struct EngineScene {
 /// Progress callback: scene name, strategy, steps done, steps in all.
 pub type Progress<'a> = &'a mut dyn FnMut(&str, &str, u32, u32);
 
-/// Runs every configured scene: reference and the three LOD strategies.
+/// Runs every configured scene: reference, its twin and the three LOD strategies.
 pub fn run_engine(
     config: &EngineConfig,
     progress: Progress<'_>,
@@ -146,6 +147,23 @@ pub fn run_scene(
         &mut scene,
         "reference",
         Frames::Record(&mut reference),
+        config,
+        kind,
+        progress,
+    )?);
+    // The twin: the reference again with one node nudged by 0.1 mm. Its distance from the
+    // reference is how much of any run's error is the scene's own chaos (the floor no LOD can
+    // go under).
+    let mut twin = build_scene(kind, &h, &spec, Cut::finest(&h), &config.assets)?;
+    let nudged = ParticleId::new(twin.cloth.node_count() / 2);
+    let at = twin.cloth.body().particle_positions()[nudged.index()].truncate();
+    twin.cloth
+        .body_mut()
+        .set_particle_position(nudged, at + Vec3::splat(1e-4))?;
+    runs.push(simulate(
+        &mut twin,
+        "reference_twin",
+        Frames::Compare(&reference),
         config,
         kind,
         progress,
