@@ -522,10 +522,13 @@ pub(crate) fn cloth_mut(
 ///
 /// The cloth sees the world's current view (camera and light). With feedback on, every
 /// `interval` steps the step also measures salience and begins the refines and coarses the
-/// evaluator chose; transitions whose blend is done end inside the step. Threads: mutates the
+/// evaluator chose; transitions whose blend is done end inside the step. A cloth worn by a
+/// character (`slod_cloth_pin_vertex_to_bone`, `slod_cloth_collider_attach_to_bone`) first
+/// moves its bone pins and colliders to the character's current pose. Threads: mutates the
 /// world; with feedback `parallel` the salience stage uses the world's worker threads. Errors:
-/// `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_REFUSED` if the feedback stage refused its inputs
-/// (nothing stepped).
+/// `SLOD_RESULT_STALE_ID` (also when the character wearing the cloth was destroyed: release it
+/// with `slod_cloth_detach_character`); `SLOD_RESULT_REFUSED` if the feedback stage refused its
+/// inputs (nothing stepped).
 ///
 /// # Safety
 /// `world` NULL or a live world.

@@ -83,6 +83,9 @@ pub struct EngineRun {
     pub max_penetration_mm: f64,
     /// Deepest simulated node centre inside a collider over all steps, mm.
     pub max_node_penetration_mm: f64,
+    /// Operations that undid one on the same node within 30 steps, per operation begun (0
+    /// without operations): flicker, e.g. from contact coming and going.
+    pub undone_fraction: f64,
     /// On-screen error against the reference (zero for the reference itself).
     pub screen: ScreenError,
     /// The reconstructed finest surface after the last step (for determinism checks).
@@ -258,6 +261,15 @@ fn simulate(
         collision_ms: contact_s / n * 1e3,
         max_penetration_mm: penetration as f64 * 1e3,
         max_node_penetration_mm: node_penetration as f64 * 1e3,
+        undone_fraction: {
+            let st = scene.cloth.stats();
+            let ops = st.refines + st.coarses;
+            if ops == 0 {
+                0.0
+            } else {
+                st.undone_ops as f64 / ops as f64
+            }
+        },
         screen: match frames {
             Frames::Record(_) => ScreenError::default(),
             Frames::Compare(_) => meter.finish(),
@@ -281,6 +293,7 @@ pub fn format_table(scenes: &[EngineScene]) -> String {
             "node pen. mm",
             "screen RMS px",
             "screen max px",
+            "undone",
         ],
     );
     for s in scenes {
@@ -296,6 +309,7 @@ pub fn format_table(scenes: &[EngineScene]) -> String {
                 format!("{:.2}", r.max_node_penetration_mm),
                 format!("{:.2}", r.screen.rms_px),
                 format!("{:.1}", r.screen.max_px),
+                format!("{:.3}", r.undone_fraction),
             ]);
         }
     }
