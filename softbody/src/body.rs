@@ -549,6 +549,9 @@ impl SoftBody {
         let colliding = !self.colliders.is_empty();
         if colliding {
             self.begin_contact_step();
+        } else {
+            // No contact this step (the last collider may just have been removed).
+            self.contact.touched.fill(false);
         }
         for sub in 0..n {
             for (((x, v), f), prev) in self

@@ -391,12 +391,13 @@ impl Colliders {
                 if mu > 0.0 {
                     let rel = y - start - surface;
                     let tangential = rel - n * n.dot(rel);
-                    let len = tangential.length();
+                    let len2 = tangential.length_squared();
                     let limit = mu * depth;
-                    if len <= limit {
+                    // Static friction (the common, resting case) needs no square root.
+                    if len2 <= limit * limit {
                         y -= tangential;
                     } else {
-                        y -= tangential * (limit / len);
+                        y -= tangential * (limit / len2.sqrt());
                     }
                 }
                 // Resolving a deep penetration (a coarse node whose radius grew past the
