@@ -4,6 +4,8 @@
  *    feedback loop at 30% compression. Prints a summary line every 100 steps.
  * 2. A crowd of characters loaded from a glTF rig, the camera moving away from it step by step;
  *    prints how many bones interpolated and held per frame at each distance.
+ * 3. A cape worn by one walking character: its top row pinned to the torso bone, six body
+ *    colliders attached to bones, light wind; the crowd advances and the cape steps each frame.
  *
  * Usage: demo [--steps N] [--characters N] [--frames N] [--rig PATH]
  *   --steps       cloth steps (default 600)
@@ -59,6 +61,27 @@ static SlodCamera look_at(float ex, float ey, float ez, float tx, float ty, floa
     return cam;
 }
 
+/* Fetches a cloth's reconstructed finest vertices (size, then copy), as a renderer would: writes
+ * their count, lowers *lowest to the lowest y, returns 1 if all are finite, 0 if not, -1 when
+ * out of memory. */
+static int surface(SlodWorld *world, SlodClothId cloth, size_t *count, float *lowest) {
+    size_t nv = 0;
+    SlodResult sized = slod_cloth_vertex_positions(world, cloth, NULL, 0, &nv);
+    if (sized != SLOD_RESULT_OK) fail("sizing vertex buffer", sized);
+    float *verts = malloc(3 * (nv ? nv : 1) * sizeof *verts); /* x, y, z per vertex */
+    if (!verts) return -1;
+    size_t written = 0;
+    CHECK(slod_cloth_vertex_positions(world, cloth, verts, nv, &written));
+    int finite = 1;
+    for (size_t i = 0; i < written; ++i) {
+        for (int k = 0; k < 3; ++k) finite &= isfinite(verts[3 * i + k]) ? 1 : 0;
+        if (verts[3 * i + 1] < *lowest) *lowest = verts[3 * i + 1];
+    }
+    free(verts);
+    *count = written;
+    return finite;
+}
+
 static int run_net(SlodWorld *world, unsigned steps) {
     SlodClothDesc desc = slod_default_cloth_desc();
     desc.columns = 65;
@@ -108,21 +131,11 @@ static int run_net(SlodWorld *world, unsigned steps) {
         }
     }
 
-    /* What a renderer would draw: the reconstructed full-resolution vertices. Size, then copy. */
-    size_t nv = 0;
-    SlodResult sized = slod_cloth_vertex_positions(world, cloth, NULL, 0, &nv);
-    if (sized != SLOD_RESULT_OK) fail("sizing vertex buffer", sized);
-    float *verts = malloc(3 * nv * sizeof *verts); /* x, y, z per vertex */
-    if (!verts) return 1;
+    /* What a renderer would draw: the reconstructed full-resolution vertices. */
     size_t written = 0;
-    CHECK(slod_cloth_vertex_positions(world, cloth, verts, nv, &written));
-    int finite = 1;
     float lowest = 0.0f;
-    for (size_t i = 0; i < written; ++i) {
-        for (int k = 0; k < 3; ++k) finite &= isfinite(verts[3 * i + k]) ? 1 : 0;
-        if (verts[3 * i + 1] < lowest) lowest = verts[3 * i + 1];
-    }
-    free(verts);
+    int finite = surface(world, cloth, &written, &lowest);
+    if (finite < 0) return 1;
 
     /* Debug links with their blend weights. */
     size_t nl = 0;
@@ -244,6 +257,115 @@ static int run_crowd(SlodWorld *world, const char *rig_path, unsigned characters
     return finite ? 0 : 1;
 }
 
+/* Index of a bone of the rig, by name. */
+static uint32_t bone(SlodWorld *world, SlodRigId rig, const char *name) {
+    uint32_t b = 0;
+    CHECK(slod_rig_find_bone(world, rig, name, &b));
+    return b;
+}
+
+static int run_cape(SlodWorld *world, const char *rig_path, unsigned steps) {
+    SlodRigId rig;
+    CHECK(slod_rig_load_file(world, rig_path, &rig));
+    uint32_t walk = 0;
+    if (slod_rig_find_clip(world, rig, "walk", &walk) != SLOD_RESULT_OK) walk = 0;
+    SlodCrowdId crowd;
+    SlodCrowdDesc cd = slod_default_crowd_desc();
+    CHECK(slod_crowd_create(world, rig, &cd, &crowd));
+    SlodCharacterDesc chd = slod_default_character_desc();
+    chd.clip = walk;
+    SlodCharacterId ch;
+    CHECK(slod_character_create(world, crowd, &chd, &ch));
+
+    /* A 0.5 m x 0.6 m cape of 17x17 vertices hanging behind the character (GDBot is about 1.1 m
+     * tall and faces +z). */
+    const unsigned n = 17;
+    SlodClothDesc d = slod_default_cloth_desc();
+    d.columns = n;
+    d.rows = n;
+    d.spacing = 0.5f / (float)(n - 1);
+    d.total_mass = 0.15f;
+    d.center[0] = 0.0f;
+    d.center[1] = 0.58f;
+    d.center[2] = -0.2f;
+    d.axis_u[0] = 1.0f;
+    d.axis_u[1] = 0.0f;
+    d.axis_u[2] = 0.0f;
+    d.axis_v[0] = 0.0f;
+    d.axis_v[1] = -1.0f;
+    d.axis_v[2] = 0.0f;
+    d.initial_level = 0;
+    SlodClothId cape;
+    CHECK(slod_cloth_create_grid(world, &d, &cape));
+    SlodFeedbackDesc fb = slod_default_feedback_desc();
+    fb.budget_kind = SLOD_CLOTH_BUDGET_COMPRESSION;
+    fb.budget_value = 0.3;
+    CHECK(slod_cloth_set_feedback(world, cape, &fb));
+
+    /* The top row hangs from the torso bone (its origin is about 0.515 m up at rest). */
+    const uint32_t torso = bone(world, rig, "torso");
+    const float half = 0.5f * (float)(n - 1) * d.spacing;
+    for (unsigned i = 0; i < n; ++i) {
+        float x = -half + (float)i * d.spacing;
+        CHECK(slod_cloth_pin_vertex_to_bone(world, cape, i, ch, torso, x, 0.83f - 0.515f, -0.2f));
+    }
+    /* Body colliders on bones; +y runs along each bone. */
+    struct {
+        const char *bone;
+        uint32_t shape;
+        float radius, half_length, along;
+    } body[] = {
+        {"torso", SLOD_SHAPE_CAPSULE, 0.15f, 0.1f, 0.2f},
+        {"head", SLOD_SHAPE_SPHERE, 0.16f, 0.0f, 0.12f},
+        {"upperleg.L", SLOD_SHAPE_CAPSULE, 0.07f, 0.06f, 0.07f},
+        {"upperleg.R", SLOD_SHAPE_CAPSULE, 0.07f, 0.06f, 0.07f},
+        {"lowerleg.L", SLOD_SHAPE_CAPSULE, 0.06f, 0.08f, 0.1f},
+        {"lowerleg.R", SLOD_SHAPE_CAPSULE, 0.06f, 0.08f, 0.1f},
+    };
+    const unsigned colliders = sizeof body / sizeof body[0];
+    for (unsigned k = 0; k < colliders; ++k) {
+        SlodColliderDesc cdsc = slod_default_collider_desc();
+        cdsc.shape = body[k].shape;
+        cdsc.radius = body[k].radius;
+        cdsc.half_length = body[k].half_length;
+        cdsc.friction = 0.4f;
+        SlodColliderId id;
+        CHECK(slod_cloth_collider_create(world, cape, &cdsc, &id));
+        SlodTransform local = {{0.0f, body[k].along, 0.0f}, {0.0f, 0.0f, 0.0f, 1.0f}};
+        CHECK(slod_cloth_collider_attach_to_bone(world, cape, id, ch, bone(world, rig, body[k].bone),
+                                                 &local));
+    }
+    SlodWindDesc wind = slod_default_wind_desc();
+    wind.velocity[0] = 1.0f;
+    wind.velocity[2] = 2.0f; /* towards the character: the cape presses on its back */
+    CHECK(slod_cloth_set_wind(world, cape, &wind));
+
+    SlodCamera cam = look_at(1.4f, 1.0f, -2.0f, 0.0f, 0.55f, 0.0f);
+    CHECK(slod_world_set_camera(world, &cam));
+    unsigned long long touching = 0;
+    double collision_ms = 0.0;
+    for (unsigned s = 0; s < steps; ++s) {
+        CHECK(slod_crowd_advance(world, crowd, 1.0f / 60.0f, NULL));
+        CHECK(slod_cloth_step(world, cape));
+        SlodContactStats cs;
+        CHECK(slod_cloth_contact_stats(world, cape, &cs));
+        touching += cs.touching_nodes;
+        collision_ms += cs.collision_ms;
+    }
+    size_t nv = 0;
+    float lowest = 1e9f;
+    int finite = surface(world, cape, &nv, &lowest);
+    if (finite < 0) return 1;
+    const double sn = steps ? (double)steps : 1.0;
+    printf("cape steps %u vertices %zu colliders %u touching %.1f collision_ms %.3f finite %d "
+           "lowest %.3f\n",
+           steps, nv, colliders, (double)touching / sn, collision_ms / sn, finite, lowest);
+    CHECK(slod_cloth_destroy(world, cape));
+    CHECK(slod_crowd_destroy(world, crowd));
+    CHECK(slod_rig_destroy(world, rig));
+    return finite ? 0 : 1;
+}
+
 int main(int argc, char **argv) {
     unsigned steps = 600, characters = 100, frames = 30;
     const char *rig = "../assets/gltf/GDQuest_GDBot.glb";
@@ -274,6 +396,7 @@ int main(int argc, char **argv) {
 
     int status = run_net(world, steps);
     if (status == 0) status = run_crowd(world, rig, characters, frames);
+    if (status == 0) status = run_cape(world, rig, steps < 120 ? steps : 120);
 
     SlodWorldCounts counts;
     CHECK(slod_world_counts(world, &counts));

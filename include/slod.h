@@ -279,6 +279,39 @@ typedef uint32_t SlodLodMode;
 #endif // __cplusplus
 
 /**
+ * A collider's geometry (values of `SlodColliderDesc::shape`); each in its own frame.
+ */
+enum SlodShape
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /**
+   * The half-space below the plane through the origin with normal +y.
+   */
+  SLOD_SHAPE_PLANE = 0,
+  /**
+   * A sphere of `radius` around the origin.
+   */
+  SLOD_SHAPE_SPHERE = 1,
+  /**
+   * Points within `radius` of the segment from (0, −`half_length`, 0) to (0, `half_length`, 0).
+   */
+  SLOD_SHAPE_CAPSULE = 2,
+  /**
+   * The box |x| <= `half_extents`.
+   */
+  SLOD_SHAPE_BOX = 3,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum SlodShape SlodShape;
+#else
+typedef uint32_t SlodShape;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
  * Everything a host created: cloths, rigs, crowds and characters. Opaque to C.
  *
  * Threads: a world is used from one thread at a time; functions taking `const SlodWorld*` may
@@ -667,6 +700,152 @@ typedef struct SlodDebugLink {
 } SlodDebugLink;
 
 /**
+ * A rigid placement: rotate by `rotation`, then translate by `position`.
+ */
+typedef struct SlodTransform {
+  /**
+   * Position (every coordinate within ±`SLOD_MAX_COORDINATE`).
+   */
+  float position[3];
+  /**
+   * Unit quaternion `x, y, z, w` (length within 1e-3 of 1).
+   */
+  float rotation[4];
+} SlodTransform;
+
+/**
+ * A collider. Get one from `slod_default_collider_desc` and change what you need.
+ */
+typedef struct SlodColliderDesc {
+  /**
+   * Set by `slod_default_collider_desc`; do not change.
+   */
+  uint32_t guard;
+  /**
+   * A `SlodShape` value.
+   */
+  uint32_t shape;
+  /**
+   * Radius of a sphere or capsule, metres, in (0, 1e4].
+   */
+  float radius;
+  /**
+   * Half the axis length of a capsule, metres, in [0, 1e4].
+   */
+  float half_length;
+  /**
+   * Half sizes of a box, metres, each in (0, 1e4].
+   */
+  float half_extents[3];
+  /**
+   * Where the collider starts.
+   */
+  struct SlodTransform transform;
+  /**
+   * Distance the cloth keeps from the surface, metres, in [0, 10].
+   */
+  float thickness;
+  /**
+   * Coulomb friction coefficient, in [0, 100].
+   */
+  float friction;
+} SlodColliderDesc;
+
+/**
+ * Wind on a cloth. Get one from `slod_default_wind_desc` and change what you need.
+ */
+typedef struct SlodWindDesc {
+  /**
+   * Set by `slod_default_wind_desc`; do not change.
+   */
+  uint32_t guard;
+  /**
+   * Mean air velocity, m/s (each component in [−1e4, 1e4]).
+   */
+  float velocity[3];
+  /**
+   * Gust strength as a fraction of the mean speed (RMS), in [0, 100].
+   */
+  float gust;
+  /**
+   * Mean gust frequency, Hz, in (0, 1e4].
+   */
+  float gust_frequency;
+  /**
+   * Mean gust wavelength, metres, in (0, 1e6].
+   */
+  float gust_wavelength;
+  /**
+   * Seed of the gusts.
+   */
+  uint64_t seed;
+  /**
+   * Air density, kg/m³, in [0, 1e4].
+   */
+  float air_density;
+  /**
+   * Drag coefficient, in [0, 100].
+   */
+  float drag;
+  /**
+   * Lift coefficient, in [0, 100].
+   */
+  float lift;
+} SlodWindDesc;
+
+/**
+ * A collider of a cloth.
+ *
+ * `index1` is a slot index plus one and `generation` the slot's stamp; the all-zero value is
+ * the null id, never issued. Compare ids with both fields.
+ */
+typedef struct SlodColliderId {
+  /**
+   * Slot index plus one; 0 for the null id.
+   */
+  uint32_t index1;
+  /**
+   * Generation stamp of the slot when the id was issued.
+   */
+  uint32_t generation;
+} SlodColliderId;
+
+/**
+ * A character (an animated instance) in a crowd.
+ *
+ * `index1` is a slot index plus one and `generation` the slot's stamp; the all-zero value is
+ * the null id, never issued. Compare ids with both fields.
+ */
+typedef struct SlodCharacterId {
+  /**
+   * Slot index plus one; 0 for the null id.
+   */
+  uint32_t index1;
+  /**
+   * Generation stamp of the slot when the id was issued.
+   */
+  uint32_t generation;
+} SlodCharacterId;
+
+/**
+ * What a cloth's contact did in its last step.
+ */
+typedef struct SlodContactStats {
+  /**
+   * Colliders of the cloth.
+   */
+  uint32_t colliders;
+  /**
+   * Simulated nodes that touched a collider during the last step.
+   */
+  uint32_t touching_nodes;
+  /**
+   * Wall time of the last step's contact work (broad phase and projections), ms.
+   */
+  double collision_ms;
+} SlodContactStats;
+
+/**
  * A rig loaded from glTF (skeleton, clips, skins), shared by the crowds that use it.
  *
  * `index1` is a slot index plus one and `generation` the slot's stamp; the all-zero value is
@@ -843,23 +1022,6 @@ typedef struct SlodCharacterDesc {
   float speed;
 } SlodCharacterDesc;
 
-/**
- * A character (an animated instance) in a crowd.
- *
- * `index1` is a slot index plus one and `generation` the slot's stamp; the all-zero value is
- * the null id, never issued. Compare ids with both fields.
- */
-typedef struct SlodCharacterId {
-  /**
-   * Slot index plus one; 0 for the null id.
-   */
-  uint32_t index1;
-  /**
-   * Generation stamp of the slot when the id was issued.
-   */
-  uint32_t generation;
-} SlodCharacterId;
-
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -1032,10 +1194,13 @@ SlodResult slod_cloth_destroy(struct SlodWorld *world, struct SlodClothId cloth)
  *
  * The cloth sees the world's current view (camera and light). With feedback on, every
  * `interval` steps the step also measures salience and begins the refines and coarses the
- * evaluator chose; transitions whose blend is done end inside the step. Threads: mutates the
+ * evaluator chose; transitions whose blend is done end inside the step. A cloth worn by a
+ * character (`slod_cloth_pin_vertex_to_bone`, `slod_cloth_collider_attach_to_bone`) first
+ * moves its bone pins and colliders to the character's current pose. Threads: mutates the
  * world; with feedback `parallel` the salience stage uses the world's worker threads. Errors:
- * `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_REFUSED` if the feedback stage refused its inputs
- * (nothing stepped).
+ * `SLOD_RESULT_STALE_ID` (also when the character wearing the cloth was destroyed: release it
+ * with `slod_cloth_detach_character`); `SLOD_RESULT_REFUSED` if the feedback stage refused its
+ * inputs (nothing stepped).
  *
  * # Safety
  * `world` NULL or a live world.
@@ -1291,6 +1456,172 @@ SlodResult slod_cloth_links(const struct SlodWorld *world,
                             struct SlodDebugLink *out,
                             size_t cap,
                             size_t *out_len);
+
+/**
+ * The default collider: a sphere of radius 0.5 m at the origin, 5 mm thickness, friction 0.3
+ * (the Rust `ColliderDesc::default()`); capsule and box fields preset to half length 0.5 and
+ * half extents 0.5.
+ *
+ * Returns a value the host owns; change fields, then pass it to `slod_cloth_collider_create`.
+ */
+struct SlodColliderDesc slod_default_collider_desc(void);
+
+/**
+ * The default wind: no mean velocity, gusts of 30% at 0.5 Hz and 4 m, air 1.2 kg/m³, drag 1,
+ * lift 0.5 (the Rust `WindField::default()`).
+ *
+ * Returns a value the host owns; change fields, then pass it to `slod_cloth_set_wind`.
+ */
+struct SlodWindDesc slod_default_wind_desc(void);
+
+/**
+ * Adds a collider to a cloth and writes its id.
+ *
+ * Ownership: the cloth owns the collider; destroy it with `slod_cloth_collider_destroy`, or with
+ * the cloth or world. The desc is copied. Threads: mutates the world. Errors:
+ * `SLOD_RESULT_STALE_ID` for `cloth`, `SLOD_RESULT_INVALID_ARGUMENT` naming the bad desc field
+ * (negative radius, NaN transform, unknown shape, missing guard); nothing is created.
+ *
+ * # Safety
+ * `world` NULL or a live world; `desc` NULL or valid; `out_collider` NULL or valid for a write.
+ */
+SlodResult slod_cloth_collider_create(struct SlodWorld *world,
+                                      struct SlodClothId cloth,
+                                      const struct SlodColliderDesc *desc,
+                                      struct SlodColliderId *out_collider);
+
+/**
+ * Removes a collider (and its bone attachment, if any); its id is stale afterwards.
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID` for `cloth` or `collider`.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_cloth_collider_destroy(struct SlodWorld *world,
+                                       struct SlodClothId cloth,
+                                       struct SlodColliderId collider);
+
+/**
+ * Moves a collider: during the next step it travels to `*transform` (linearly, rotation by
+ * slerp) and friction sees that motion (a kinematic collider). Call once per frame.
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID` for `cloth` or `collider`;
+ * `SLOD_RESULT_INVALID_ARGUMENT` for a transform not finite, beyond `SLOD_MAX_COORDINATE` or
+ * with a rotation that is not a unit quaternion (nothing moves).
+ *
+ * # Safety
+ * `world` NULL or a live world; `transform` NULL or valid.
+ */
+SlodResult slod_cloth_collider_set_transform(struct SlodWorld *world,
+                                             struct SlodClothId cloth,
+                                             struct SlodColliderId collider,
+                                             const struct SlodTransform *transform);
+
+/**
+ * Attaches a collider to bone `bone` of `character` at `*local` in the bone's frame: from the
+ * next `slod_cloth_step` on, the collider follows the bone (the cloth becomes worn by that
+ * character).
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID` for `cloth`, `collider` or
+ * `character`; `SLOD_RESULT_INVALID_ARGUMENT` for a bone the character's rig lacks or a bad
+ * transform; `SLOD_RESULT_REFUSED` if the cloth is already worn by another character. Nothing
+ * changes on an error.
+ *
+ * # Safety
+ * `world` NULL or a live world; `local` NULL or valid.
+ */
+SlodResult slod_cloth_collider_attach_to_bone(struct SlodWorld *world,
+                                              struct SlodClothId cloth,
+                                              struct SlodColliderId collider,
+                                              struct SlodCharacterId character,
+                                              uint32_t bone,
+                                              const struct SlodTransform *local);
+
+/**
+ * Pins finest vertex `vertex` to bone `bone` of `character`, at `(x, y, z)` in the bone's frame
+ * (bone model space: offsets follow the bone's rotation): from the next `slod_cloth_step` on,
+ * the vertex's anchor follows the bone (the cloth becomes worn by that character).
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID` for `cloth` or `character`;
+ * `SLOD_RESULT_INVALID_ARGUMENT` for a vertex out of range, a bone the rig lacks, or an offset
+ * not finite or beyond `SLOD_MAX_COORDINATE`; `SLOD_RESULT_REFUSED` if the cloth is worn by
+ * another character. Nothing changes on an error.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_cloth_pin_vertex_to_bone(struct SlodWorld *world,
+                                         struct SlodClothId cloth,
+                                         uint32_t vertex,
+                                         struct SlodCharacterId character,
+                                         uint32_t bone,
+                                         float x,
+                                         float y,
+                                         float z);
+
+/**
+ * Releases every tie of a cloth to its character (bone pins stay pinned where they are,
+ * colliders stay where they are); the cloth can then be worn by another character.
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID` for `cloth`.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_cloth_detach_character(struct SlodWorld *world, struct SlodClothId cloth);
+
+/**
+ * Sets the wind on a cloth (replacing any); forces are computed inside every step from the
+ * nodes simulated then, per area of cloth, so they do not depend on the cut.
+ *
+ * The desc is copied. Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID` for `cloth`;
+ * `SLOD_RESULT_INVALID_ARGUMENT` naming the bad desc field (the wind is unchanged).
+ *
+ * # Safety
+ * `world` NULL or a live world; `desc` NULL or valid.
+ */
+SlodResult slod_cloth_set_wind(struct SlodWorld *world,
+                               struct SlodClothId cloth,
+                               const struct SlodWindDesc *desc);
+
+/**
+ * Removes the wind from a cloth.
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID` for `cloth`.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_cloth_clear_wind(struct SlodWorld *world, struct SlodClothId cloth);
+
+/**
+ * Writes what a cloth's contact did in its last step to `*out_stats`.
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID` for `cloth`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_stats` NULL or valid for a write.
+ */
+SlodResult slod_cloth_contact_stats(const struct SlodWorld *world,
+                                    struct SlodClothId cloth,
+                                    struct SlodContactStats *out_stats);
+
+/**
+ * Writes the index of the bone named `name` in `rig` to `*out_bone` (for
+ * `slod_cloth_pin_vertex_to_bone` and `slod_cloth_collider_attach_to_bone`).
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_INVALID_ARGUMENT`
+ * if no bone has that name or it is not UTF-8.
+ *
+ * # Safety
+ * `world` NULL or a live world; `name` NULL or NUL-terminated; `out_bone` NULL or valid for a
+ * write.
+ */
+SlodResult slod_rig_find_bone(const struct SlodWorld *world,
+                              struct SlodRigId rig,
+                              const char *name,
+                              uint32_t *out_bone);
 
 /**
  * Loads a rig (skeleton, clips, skins) from a .glb or .gltf file and writes its id.

@@ -14,7 +14,9 @@ use crate::progress::Progress;
 /// One run as reported.
 #[derive(Clone, Debug, Serialize)]
 pub(crate) struct EngineRunReport {
-    /// `reference`, `lod` (feedback at 30% of the nodes) or `lod_no_contact` (the same without
+    /// `reference`, `reference_twin` (the reference with one node nudged by 0.1 mm: the scene's
+    /// chaos floor), `lod` (feedback at 30% of the nodes), `lod_join_at_end` (the paper's rule:
+    /// a refine's children join collision when it ends) or `lod_no_contact` (`lod` without
     /// contact raising priorities).
     pub(crate) strategy: &'static str,
     /// Mean simulated nodes per step.
@@ -28,6 +30,8 @@ pub(crate) struct EngineRunReport {
     /// Deepest point of the reconstructed finest surface inside a collider's bare shape over
     /// all steps, mm.
     pub(crate) max_penetration_mm: f64,
+    /// Operations undone within 30 steps per operation begun (flicker).
+    pub(crate) undone_fraction: f64,
     /// On-screen error against the reference: mean per-frame RMS, px (null for the reference).
     pub(crate) screen_rms_px: Option<f64>,
     /// 99th percentile over vertex-frames, px (null for the reference).
@@ -93,7 +97,7 @@ pub(crate) fn run(quick: bool, progress: Progress) -> Result<EngineOutcome, Demo
     } else {
         EngineConfig::standard(&assets)
     };
-    let runs = config.scenes.len() as u64 * 3 * config.steps as u64;
+    let runs = config.scenes.len() as u64 * 5 * config.steps as u64;
     let bar = progress.bar(runs, "engine");
     let mut done = 0u64;
     let mut last = 0u32;
@@ -125,6 +129,7 @@ pub(crate) fn run(quick: bool, progress: Progress) -> Result<EngineOutcome, Demo
                         collision_ms: r.collision_ms,
                         collision_fraction: r.collision_ms / r.ms_per_step.max(1e-12),
                         max_penetration_mm: r.max_penetration_mm,
+                        undone_fraction: r.undone_fraction,
                         screen_rms_px: measured.then_some(r.screen.rms_px),
                         screen_p99_px: measured.then_some(r.screen.p99_px),
                         screen_max_px: measured.then_some(r.screen.max_px),

@@ -597,6 +597,9 @@ impl SoftBody {
         let colliding = !self.colliders.is_empty();
         if colliding {
             self.begin_contact_step();
+        } else {
+            // No contact this step (the last collider may just have been removed).
+            self.contact.touched.fill(false);
         }
         for sub in 0..n {
             for (((x, v), f), prev) in self
@@ -633,8 +636,13 @@ impl SoftBody {
                 }
             }
             if colliding {
-                self.colliders
-                    .project(sub, n, &mut self.positions, &self.prev, &mut self.contact);
+                self.colliders.project(
+                    sub,
+                    n,
+                    &mut self.positions,
+                    &mut self.prev,
+                    &mut self.contact,
+                );
             }
             for ((v, x), prev) in self
                 .velocities
@@ -673,6 +681,7 @@ impl SoftBody {
             &self.collides,
             &mut self.contact,
             2.0 * reach + 1e-3,
+            dt,
         );
     }
 

@@ -62,8 +62,9 @@
 //!   velocity) whose group links become plain links.
 //!
 //! Nodes in transition and all their neighbours are locked in the cut until the end, so no
-//! transition starts next to one in flight. New particles have [`SoftBody::collides`] false until
-//! their transition ends, when they join collision (the paper's section 3.4).
+//! transition starts next to one in flight. The children of a refine collide at once by default;
+//! with [`TransitionCollision::AtEnd`] they join collision when their refine ends, as the paper
+//! does (section 3.4), which measured deep penetration during the blend.
 //! Particle storage is dense (swap-removal), so after many operations neighbours sit far apart
 //! in memory; once enough particles have come and gone, [`TreeCutSoftBody::step`] puts them
 //! back in spatial order and re-colours the links ([`TreeCutSoftBody::renumber_particles`]: a
@@ -111,8 +112,8 @@ pub use kernel::KernelPath;
 pub use links::LinkInfo;
 pub use settings::{ComplianceScaling, Material, SolverSettings};
 pub use tc::{
-    DrawLink, ReconstructionError, ReconstructionMode, TransitionInfo, TransitionKind,
-    TreeCutError, TreeCutSettings, TreeCutSoftBody, reconstruction_error,
+    DrawLink, ReconstructionError, ReconstructionMode, TransitionCollision, TransitionInfo,
+    TransitionKind, TreeCutError, TreeCutSettings, TreeCutSoftBody, reconstruction_error,
 };
 /// The `treecut` crate this one builds on, re-exported so hosts use the same version.
 pub use treecut;

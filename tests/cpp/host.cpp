@@ -243,6 +243,93 @@ void crowd_checks(slod::World &world, const char *rig_path) {
     EXPECT(c.crowds == 1 && c.characters == 11 && c.rigs == 1);
 }
 
+// Colliders, wind and a cloth worn by a character, through the plain C calls (slod.h): a
+// capsule attached to a bone follows it, bad input is refused with the documented codes and
+// changes nothing, a destroyed collider's id goes stale.
+void engine_checks(slod::World &world, const char *rig_path) {
+    SlodWorld *w = world.get();
+    slod::Rig rig = slod::Rig::from_file(world, rig_path);
+    slod::Crowd crowd(world, rig);
+    SlodCharacterDesc chd = slod_default_character_desc();
+    SlodCharacterId ch = crowd.add(chd);
+    uint32_t torso = 0;
+    EXPECT(slod_rig_find_bone(w, rig.id(), "torso", &torso) == SLOD_RESULT_OK);
+    uint32_t none = 12345;
+    EXPECT(slod_rig_find_bone(w, rig.id(), "no such bone", &none) ==
+           SLOD_RESULT_INVALID_ARGUMENT);
+    EXPECT(none == 12345); // outputs are written only on success
+
+    SlodClothDesc d = slod_default_cloth_desc();
+    d.columns = 9;
+    d.rows = 9;
+    d.spacing = 0.05f;
+    d.center[1] = 0.6f;
+    d.center[2] = -0.25f;
+    d.axis_v[0] = 0.0f;
+    d.axis_v[1] = -1.0f;
+    d.axis_v[2] = 0.0f;
+    slod::Cloth cape = slod::Cloth::grid(world, d);
+    SlodColliderDesc cd = slod_default_collider_desc();
+    cd.shape = SLOD_SHAPE_CAPSULE;
+    cd.radius = 0.15f;
+    cd.half_length = 0.1f;
+    SlodColliderId body{};
+    EXPECT(slod_cloth_collider_create(w, cape.id(), &cd, &body) == SLOD_RESULT_OK);
+    SlodTransform local = {{0.0f, 0.2f, 0.0f}, {0.0f, 0.0f, 0.0f, 1.0f}};
+    EXPECT(slod_cloth_collider_attach_to_bone(w, cape.id(), body, ch, torso, &local) ==
+           SLOD_RESULT_OK);
+    for (uint32_t i = 0; i < 9; ++i)
+        EXPECT(slod_cloth_pin_vertex_to_bone(w, cape.id(), i, ch, torso,
+                                             -0.2f + 0.05f * static_cast<float>(i), 0.3f,
+                                             -0.25f) == SLOD_RESULT_OK);
+    SlodWindDesc wind = slod_default_wind_desc();
+    wind.velocity[2] = 3.0f;
+    EXPECT(slod_cloth_set_wind(w, cape.id(), &wind) == SLOD_RESULT_OK);
+
+    // Bad input: each refused with its code; the collider count does not change.
+    SlodColliderDesc bad = cd;
+    bad.radius = -1.0f;
+    SlodColliderId unused{};
+    EXPECT(slod_cloth_collider_create(w, cape.id(), &bad, &unused) ==
+           SLOD_RESULT_INVALID_ARGUMENT);
+    EXPECT(slod::last_error().find("radius") != std::string::npos);
+    SlodColliderDesc zero{};
+    EXPECT(slod_cloth_collider_create(w, cape.id(), &zero, &unused) ==
+           SLOD_RESULT_INVALID_ARGUMENT);
+    SlodTransform nan = {{NAN, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f, 1.0f}};
+    EXPECT(slod_cloth_collider_set_transform(w, cape.id(), body, &nan) ==
+           SLOD_RESULT_INVALID_ARGUMENT);
+    EXPECT(slod_cloth_collider_attach_to_bone(w, cape.id(), body, ch, 100000, &local) ==
+           SLOD_RESULT_INVALID_ARGUMENT);
+    SlodCharacterId stale = ch;
+    stale.generation += 1000;
+    EXPECT(slod_cloth_pin_vertex_to_bone(w, cape.id(), 0, stale, torso, 0.0f, 0.0f, 0.0f) ==
+           SLOD_RESULT_STALE_ID);
+    SlodContactStats cs{};
+    EXPECT(slod_cloth_contact_stats(w, cape.id(), &cs) == SLOD_RESULT_OK);
+    EXPECT(cs.colliders == 1);
+
+    // The character walks; the cape follows and stays finite, pressed on the body by the wind.
+    world.set_camera(camera_at(3.0f));
+    uint64_t touching = 0;
+    for (int s = 0; s < 60; ++s) {
+        crowd.advance(1.0f / 60.0f);
+        cape.step();
+        EXPECT(slod_cloth_contact_stats(w, cape.id(), &cs) == SLOD_RESULT_OK);
+        touching += cs.touching_nodes;
+        EXPECT(cs.collision_ms >= 0.0);
+    }
+    EXPECT(touching > 0);
+    for (const slod::Vec3 &v : cape.vertex_positions()) EXPECT(finite(v));
+
+    EXPECT(slod_cloth_collider_destroy(w, cape.id(), body) == SLOD_RESULT_OK);
+    EXPECT(slod_cloth_collider_destroy(w, cape.id(), body) == SLOD_RESULT_STALE_ID);
+    EXPECT(slod_cloth_contact_stats(w, cape.id(), &cs) == SLOD_RESULT_OK);
+    EXPECT(cs.colliders == 0);
+    EXPECT(slod_cloth_clear_wind(w, cape.id()) == SLOD_RESULT_OK);
+    EXPECT(slod_cloth_detach_character(w, cape.id()) == SLOD_RESULT_OK);
+}
+
 // Handles share their world: a World moved into a variable declared after its handles (so it
 // is destroyed first), or destroyed while handles live, must not be a use-after-free. Under
 // valgrind (tests/tests/cpp_host.rs) any such access is an error.
@@ -313,6 +400,7 @@ int main(int argc, char **argv) {
         slod::World world(wd);
         cloth_checks(world);
         crowd_checks(world, argv[1]);
+        engine_checks(world, argv[1]);
         lifetime_checks();
         message_checks(world);
         SlodWorldCounts c = world.counts();

@@ -152,6 +152,17 @@ fn c_demo_runs_the_net_and_the_crowd() {
         out.contains(&format!("crowd matrices bones {bones} finite 1")),
         "{out}"
     );
+    // The cape worn by the walking character: its body colliders touch it, it stays finite,
+    // and it hangs from the torso (about 0.83 m up) without falling to the floor.
+    let cape = lines
+        .iter()
+        .find(|l| l.starts_with("cape steps"))
+        .expect("cape line");
+    assert_eq!(field::<u32>(cape, "colliders"), 6, "{cape}");
+    assert_eq!(field::<i32>(cape, "finite"), 1, "{cape}");
+    assert!(field::<f64>(cape, "touching") > 0.0, "{cape}");
+    let lowest: f64 = field(cape, "lowest");
+    assert!(lowest > 0.0 && lowest < 0.6, "{cape}");
     assert!(out.contains("world left cloths 0 rigs 0 crowds 0 characters 0"));
     assert!(out.trim_end().ends_with("demo ok"));
 }

@@ -4,6 +4,8 @@
 
 mod adaptive;
 mod contact;
+#[cfg(test)]
+mod contact_tests;
 mod controller;
 mod error;
 mod feedback;

@@ -379,7 +379,13 @@ pub(crate) fn cloth_error(e: ClothError) -> FfiError {
 }
 
 fn insert(world: &mut SlodWorld, cloth: AdaptiveCloth) -> SlodClothId {
-    world.cloths.insert(ClothEntry { cloth }).into()
+    world
+        .cloths
+        .insert(ClothEntry {
+            cloth,
+            contacts: Default::default(),
+        })
+        .into()
 }
 
 /// Creates a grid cloth (a quadtree hierarchy over `columns × rows` vertices) and writes its id.
@@ -537,10 +543,13 @@ pub(crate) fn cloth_mut(
 ///
 /// The cloth sees the world's current view (camera and light). With feedback on, every
 /// `interval` steps the step also measures salience and begins the refines and coarses the
-/// evaluator chose; transitions whose blend is done end inside the step. Threads: mutates the
+/// evaluator chose; transitions whose blend is done end inside the step. A cloth worn by a
+/// character (`slod_cloth_pin_vertex_to_bone`, `slod_cloth_collider_attach_to_bone`) first
+/// moves its bone pins and colliders to the character's current pose. Threads: mutates the
 /// world; with feedback `parallel` the salience stage uses the world's worker threads. Errors:
-/// `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_REFUSED` if the feedback stage refused its inputs
-/// (nothing stepped).
+/// `SLOD_RESULT_STALE_ID` (also when the character wearing the cloth was destroyed: release it
+/// with `slod_cloth_detach_character`); `SLOD_RESULT_REFUSED` if the feedback stage refused its
+/// inputs (nothing stepped).
 ///
 /// # Safety
 /// `world` NULL or a live world.
@@ -549,6 +558,7 @@ pub unsafe extern "C" fn slod_cloth_step(world: *mut SlodWorld, cloth: SlodCloth
     boundary(|| {
         // SAFETY: caller contract: NULL or a live world used by this thread only.
         let world = unsafe { arg_mut(world, "world") }?;
+        super::collider::follow_character(world, cloth)?;
         let view = world.view;
         let pool = world.pool.as_ref();
         let entry = world.cloths.get_mut(RawId::from(cloth), "cloth")?;

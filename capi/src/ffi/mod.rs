@@ -6,7 +6,8 @@
 //! function body runs inside [`boundary::boundary`], so no panic crosses into C.
 //!
 //! Files by subject: [`world`] (world, versions, desc guard), [`view`] (camera, light),
-//! [`cloth`] and [`cloth_query`] (adaptive cloth), [`rig`], [`crowd`] and [`character`]
+//! [`cloth`] and [`cloth_query`] (adaptive cloth), [`collider`] (colliders, wind, cloth worn
+//! by a character), [`rig`], [`crowd`] and [`character`]
 //! (animation), [`result`] (codes and the last error).
 
 // Declaration order is the order of the generated header: basics first, then cloth, then
@@ -24,6 +25,8 @@ pub mod cloth;
 
 pub mod cloth_query;
 
+pub mod collider;
+
 pub mod rig;
 
 pub mod crowd;
@@ -36,9 +39,13 @@ mod defaults_tests;
 #[cfg(test)]
 mod contract_tests;
 
+#[cfg(test)]
+mod collider_tests;
+
 pub use character::*;
 pub use cloth::*;
 pub use cloth_query::*;
+pub use collider::*;
 pub use crowd::*;
 pub use ids::{SlodCharacterId, SlodClothId, SlodCrowdId, SlodRigId};
 pub use result::{SlodResult, slod_last_error, slod_result_str};

@@ -70,6 +70,8 @@ pub extern "C" fn slod_default_world_desc() -> SlodWorldDesc {
 #[derive(Debug)]
 pub(crate) struct ClothEntry {
     pub(crate) cloth: AdaptiveCloth,
+    /// Its colliders' C ids and its ties to a character's bones.
+    pub(crate) contacts: super::collider::ClothContacts,
 }
 
 /// Everything a host created: cloths, rigs, crowds and characters. Opaque to C.

@@ -12,8 +12,10 @@
 //! any collider's bare shape (thickness not counted) over all steps, its mean step time and the
 //! part of it spent in contact (broad phase and projections).
 //!
-//! Strategies: `reference` (every node), `lod` (feedback at 30% of the nodes, contact raising
-//! priorities), `lod_no_contact` (the same without contact priorities, to show what they do).
+//! Strategies: `reference` (every node), `reference_twin` (the reference with one node nudged by
+//! 0.1 mm: its error is the scene's chaos, the floor for every other run), `lod` (feedback at 30% of the nodes, contact raising
+//! priorities), `lod_join_at_end` (the same with the paper's rule that a refine's children join
+//! collision only when it ends), `lod_no_contact` (`lod` without contact priorities).
 
 mod scenes;
 
@@ -24,7 +26,7 @@ use std::time::Instant;
 
 use glam::Vec3;
 use slod::cloth::{ClothBudget, ClothError, ContactSettings, FeedbackSettings};
-use softbody::TreeCutError;
+use softbody::{ParticleId, TransitionCollision, TreeCutError};
 use treecut::{Cut, uniform_cut};
 
 use crate::screen::{ScreenError, ScreenMeter};
@@ -69,7 +71,7 @@ impl EngineConfig {
 /// One run of a scene.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EngineRun {
-    /// `reference`, `lod` or `lod_no_contact`.
+    /// `reference`, `reference_twin`, `lod`, `lod_join_at_end` or `lod_no_contact`.
     pub strategy: &'static str,
     /// Mean simulated nodes per step.
     pub nodes: f64,
@@ -79,6 +81,11 @@ pub struct EngineRun {
     pub collision_ms: f64,
     /// Deepest point of the reconstructed surface inside a collider over all steps, mm.
     pub max_penetration_mm: f64,
+    /// Deepest simulated node centre inside a collider over all steps, mm.
+    pub max_node_penetration_mm: f64,
+    /// Operations that undid one on the same node within 30 steps, per operation begun (0
+    /// without operations): flicker, e.g. from contact coming and going.
+    pub undone_fraction: f64,
     /// On-screen error against the reference (zero for the reference itself).
     pub screen: ScreenError,
     /// The reconstructed finest surface after the last step (for determinism checks).
@@ -103,7 +110,7 @@ pub struct EngineScene {
 /// Progress callback: scene name, strategy, steps done, steps in all.
 pub type Progress<'a> = &'a mut dyn FnMut(&str, &str, u32, u32);
 
-/// Runs every configured scene: reference, LOD, LOD without contact priorities.
+/// Runs every configured scene: reference, its twin and the three LOD strategies.
 pub fn run_engine(
     config: &EngineConfig,
     progress: Progress<'_>,
@@ -147,8 +154,29 @@ pub fn run_scene(
         kind,
         progress,
     )?);
+    // The twin: the reference again with one node nudged by 0.1 mm. Its distance from the
+    // reference is how much of any run's error is the scene's own chaos (the floor no LOD can
+    // go under).
+    let mut twin = build_scene(kind, &h, &spec, Cut::finest(&h), &config.assets)?;
+    let nudged = ParticleId::new(twin.cloth.node_count() / 2);
+    let at = twin.cloth.body().particle_positions()[nudged.index()].truncate();
+    twin.cloth
+        .body_mut()
+        .set_particle_position(nudged, at + Vec3::splat(1e-4))?;
+    runs.push(simulate(
+        &mut twin,
+        "reference_twin",
+        Frames::Compare(&reference),
+        config,
+        kind,
+        progress,
+    )?);
     let budget = ((config.compression as f64 * full as f64).round() as usize).clamp(1, full);
-    for (strategy, weight) in [("lod", 1.0), ("lod_no_contact", 0.0)] {
+    for (strategy, weight, join) in [
+        ("lod", 1.0, TransitionCollision::Immediately),
+        ("lod_join_at_end", 1.0, TransitionCollision::AtEnd),
+        ("lod_no_contact", 0.0, TransitionCollision::Immediately),
+    ] {
         let cut = uniform_cut(&h, budget).map_err(TreeCutError::from)?;
         let mut scene = build_scene(kind, &h, &spec, cut, &config.assets)?;
         scene.cloth.set_feedback(Some(FeedbackSettings {
@@ -158,6 +186,7 @@ pub fn run_scene(
         scene
             .cloth
             .set_contact_settings(ContactSettings { weight })?;
+        scene.cloth.body_mut().set_transition_collision(join);
         runs.push(simulate(
             &mut scene,
             strategy,
@@ -195,6 +224,8 @@ fn simulate(
     let mut meter = ScreenMeter::new(scene.view);
     let (mut step_s, mut contact_s, mut nodes) = (0f64, 0f64, 0f64);
     let mut penetration = 0f32;
+    let mut node_penetration = 0f32;
+    let mut centres = Vec::new();
     for s in 0..config.steps {
         let t = Instant::now();
         scene.frame()?;
@@ -203,6 +234,16 @@ fn simulate(
         nodes += scene.cloth.node_count() as f64;
         scene.cloth.reconstruct(&mut surface)?;
         penetration = penetration.max(scene.cloth.max_penetration(&surface));
+        centres.clear();
+        centres.extend(
+            scene
+                .cloth
+                .body()
+                .particle_positions()
+                .iter()
+                .map(|p| p.truncate()),
+        );
+        node_penetration = node_penetration.max(scene.cloth.max_penetration(&centres));
         let frame = s as usize * full..(s as usize + 1) * full;
         match &mut frames {
             Frames::Record(r) => r[frame].copy_from_slice(&surface),
@@ -219,6 +260,16 @@ fn simulate(
         ms_per_step: step_s / n * 1e3,
         collision_ms: contact_s / n * 1e3,
         max_penetration_mm: penetration as f64 * 1e3,
+        max_node_penetration_mm: node_penetration as f64 * 1e3,
+        undone_fraction: {
+            let st = scene.cloth.stats();
+            let ops = st.refines + st.coarses;
+            if ops == 0 {
+                0.0
+            } else {
+                st.undone_ops as f64 / ops as f64
+            }
+        },
         screen: match frames {
             Frames::Record(_) => ScreenError::default(),
             Frames::Compare(_) => meter.finish(),
@@ -239,8 +290,10 @@ pub fn format_table(scenes: &[EngineScene]) -> String {
             "ms/step",
             "collision ms",
             "max pen. mm",
+            "node pen. mm",
             "screen RMS px",
             "screen max px",
+            "undone",
         ],
     );
     for s in scenes {
@@ -253,8 +306,10 @@ pub fn format_table(scenes: &[EngineScene]) -> String {
                 format!("{:.2}", r.ms_per_step),
                 format!("{:.3}", r.collision_ms),
                 format!("{:.2}", r.max_penetration_mm),
+                format!("{:.2}", r.max_node_penetration_mm),
                 format!("{:.2}", r.screen.rms_px),
                 format!("{:.1}", r.screen.max_px),
+                format!("{:.3}", r.undone_fraction),
             ]);
         }
     }

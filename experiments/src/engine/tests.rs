@@ -25,7 +25,7 @@ fn every_scene_runs_and_keeps_the_reference_out_of_its_colliders() {
             s.name,
             reference.max_penetration_mm
         );
-        for r in &s.runs[1..] {
+        for r in s.runs.iter().filter(|r| r.strategy.starts_with("lod")) {
             assert!(r.nodes < reference.nodes, "{}: {} nodes", s.name, r.nodes);
             assert!(r.screen.rms_px.is_finite());
         }

@@ -31,8 +31,10 @@
 //! Once per step each collider's bounds, swept from where it starts to where the host moves
 //! it and grown by thickness, the largest particle radius and the largest distance a particle
 //! can travel in the step, is tested against the bounds of the colliding particles; a collider
-//! that misses them is skipped for the whole step, and one that overlaps keeps the list of
-//! particles inside its grown bounds. The substeps only test those candidates, so a collider
+//! that misses them is skipped for the whole step. One that overlaps keeps the particles inside
+//! its grown bounds whose distance to the shape is within reach: thickness, the particle's
+//! radius, its travel and the sweep of the shape's surface during the step (translation plus
+//! rotation angle times the shape's extent bound how much the distance can change). The substeps only test those candidates, so a collider
 //! costs what it touches. Candidate lists are reused buffers: no allocation per step once warm.
 //! Everything runs in a fixed order (colliders by slot, particles by index): deterministic.
 
@@ -42,9 +44,19 @@ mod tests;
 
 pub use shape::{Shape, Transform};
 
+use shape::Placed;
+
 use crate::error::SoftBodyError;
 use glam::{Vec3, Vec3A, Vec4};
 use slod_core::{Arena, Handle};
+
+/// The largest speed (m/s, relative to the collider's surface) at which a contact pushes a
+/// particle out. Separating a particle that arrived within a substep needs only its approach
+/// speed undone; a larger push means it started deep inside (a coarse node's covering radius
+/// after a coarse, a collider moved into the cloth), and turning that depth into velocity in one
+/// substep would throw the cloth (a 10 cm overlap resolved in 1 ms is 100 m/s). 1 m/s clears
+/// such overlaps within a few steps without a visible jump.
+pub const MAX_SEPARATION_SPEED: f32 = 1.0;
 
 /// Names a collider of a body. Generation-checked: a removed collider's id is refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
@@ -138,6 +150,8 @@ pub struct Colliders {
     arena: Arena<Collider>,
     /// Wall time of the last step's contact work (broad phase and projections), seconds.
     last_seconds: f64,
+    /// The step's length (set by the broad phase).
+    step_dt: f32,
 }
 
 impl Colliders {
@@ -263,8 +277,10 @@ impl Colliders {
         collides: &[bool],
         particles: &mut ContactParticles,
         reach: f32,
+        dt: f32,
     ) {
         let started = std::time::Instant::now();
+        self.step_dt = dt;
         particles.touched.fill(false);
         let mut lo = Vec3A::splat(f32::INFINITY);
         let mut hi = Vec3A::splat(f32::NEG_INFINITY);
@@ -286,9 +302,33 @@ impl Colliders {
             if c_lo.cmpgt(hi).any() || c_hi.cmplt(lo).any() {
                 continue;
             }
-            for (i, (x, &col)) in positions.iter().zip(collides).enumerate() {
+            // How far any surface point moves during the step: the shape's distance function
+            // changes by at most this much, so a particle farther than margin + sweep from the
+            // shape where it starts cannot touch it during the step.
+            let Some(sweep) = c.desc.shape.sweep(&c.start, &c.desc.transform) else {
+                // A rotating plane: every particle in the bounds is a candidate.
+                for (i, (x, &col)) in positions.iter().zip(collides).enumerate() {
+                    let p = Vec3A::from_vec4(*x);
+                    if col && x.w > 0.0 && !(p.cmplt(c_lo).any() || p.cmpgt(c_hi).any()) {
+                        c.candidates.push(i as u32);
+                    }
+                }
+                continue;
+            };
+            let reach_all = c.desc.thickness + reach + sweep;
+            let placed = Placed::new(&c.desc.shape, &c.start);
+            for (i, ((x, &col), &r)) in positions
+                .iter()
+                .zip(collides)
+                .zip(&particles.radius)
+                .enumerate()
+            {
                 let p = Vec3A::from_vec4(*x);
-                if col && x.w > 0.0 && !(p.cmplt(c_lo).any() || p.cmpgt(c_hi).any()) {
+                if !col || x.w == 0.0 || p.cmplt(c_lo).any() || p.cmpgt(c_hi).any() {
+                    continue;
+                }
+                let (d, _) = placed.distance(p);
+                if d < reach_all + r {
                     c.candidates.push(i as u32);
                 }
             }
@@ -304,10 +344,11 @@ impl Colliders {
         sub: u32,
         substeps: u32,
         positions: &mut [Vec4],
-        prev: &[Vec4],
+        prev: &mut [Vec4],
         particles: &mut ContactParticles,
     ) {
         let started = std::time::Instant::now();
+        let h = self.step_dt / substeps as f32;
         let t0 = sub as f32 / substeps as f32;
         let t1 = (sub + 1) as f32 / substeps as f32;
         for (_, c) in self.arena.iter() {
@@ -327,36 +368,44 @@ impl Colliders {
             } else {
                 (c.desc.transform, c.desc.transform)
             };
-            let shape = c.desc.shape;
+            let placed = Placed::new(&c.desc.shape, &to);
             let mu = c.desc.friction;
             for &i in &c.candidates {
                 let i = i as usize;
                 let x = Vec3A::from_vec4(positions[i]);
-                let local = to.inverse_apply(x);
-                let (d, n_local) = shape.distance(local);
-                let n = to.rotate(n_local);
+                let (d, n) = placed.distance(x);
                 let depth = c.desc.thickness + particles.radius[i] - d;
                 if depth <= 0.0 {
                     continue;
                 }
                 particles.touched[i] = true;
                 let mut y = x + n * depth;
+                // Motion of the surface point under the particle over the substep.
+                let surface = if moving {
+                    let local = to.inverse_apply(x);
+                    to.apply(local) - from.apply(local)
+                } else {
+                    Vec3A::ZERO
+                };
+                let start = Vec3A::from_vec4(prev[i]);
                 if mu > 0.0 {
-                    // Motion relative to the surface point under the particle.
-                    let surface = if moving {
-                        to.apply(local) - from.apply(local)
-                    } else {
-                        Vec3A::ZERO
-                    };
-                    let rel = y - Vec3A::from_vec4(prev[i]) - surface;
+                    let rel = y - start - surface;
                     let tangential = rel - n * n.dot(rel);
-                    let len = tangential.length();
+                    let len2 = tangential.length_squared();
                     let limit = mu * depth;
-                    if len <= limit {
+                    // Static friction (the common, resting case) needs no square root.
+                    if len2 <= limit * limit {
                         y -= tangential;
                     } else {
-                        y -= tangential * (limit / len);
+                        y -= tangential * (limit / len2.sqrt());
                     }
+                }
+                // Resolving a deep penetration (a coarse node whose radius grew past the
+                // surface, a collider teleported into the cloth) must not launch the particle:
+                // the outward speed the projection leaves is capped, relative to the surface.
+                let outward = n.dot(y - start - surface) - MAX_SEPARATION_SPEED * h;
+                if outward > 0.0 {
+                    prev[i] = Vec4::from((start + n * outward, prev[i].w));
                 }
                 positions[i] = Vec4::from((y, positions[i].w));
             }

@@ -113,6 +113,26 @@ impl Shape {
         }
     }
 
+    /// The farthest any surface point moves when the shape goes from `a` to `b`: translation
+    /// plus rotation angle times the shape's extent. `None` for a rotating plane (unbounded).
+    pub(crate) fn sweep(&self, a: &Transform, b: &Transform) -> Option<f32> {
+        let moved = a.position.distance(b.position);
+        let angle = a.rotation.angle_between(b.rotation);
+        if angle == 0.0 || !angle.is_finite() {
+            return Some(moved);
+        }
+        let extent = match *self {
+            Shape::Plane => return None,
+            Shape::Sphere { radius } => radius,
+            Shape::Capsule {
+                radius,
+                half_length,
+            } => radius + half_length,
+            Shape::Box { half_extents } => half_extents.length(),
+        };
+        Some(moved + angle * extent)
+    }
+
     /// World-space bounds `(min, max)` of the shape placed by `t`, grown by `margin`.
     pub(crate) fn bounds(&self, t: &Transform, margin: f32) -> (Vec3A, Vec3A) {
         if matches!(self, Shape::Plane) {
@@ -141,6 +161,108 @@ impl Shape {
         ) + Vec3A::splat(margin);
         let c = Vec3A::from(t.position);
         (c - half, c + half)
+    }
+}
+
+/// A shape placed in the world, with what its distance function needs precomputed (normal,
+/// axis, rotation matrix), so the contact loop evaluates it without quaternion rotations.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Placed {
+    Plane {
+        point: Vec3A,
+        normal: Vec3A,
+    },
+    Sphere {
+        centre: Vec3A,
+        radius: f32,
+    },
+    Capsule {
+        centre: Vec3A,
+        axis: Vec3A,
+        half_length: f32,
+        radius: f32,
+    },
+    Box {
+        centre: Vec3A,
+        rotation: glam::Mat3A,
+        inverse: glam::Mat3A,
+        half_extents: Vec3A,
+    },
+}
+
+impl Placed {
+    /// `shape` placed by `t`.
+    pub(crate) fn new(shape: &Shape, t: &Transform) -> Placed {
+        let centre = Vec3A::from(t.position);
+        match *shape {
+            Shape::Plane => Placed::Plane {
+                point: centre,
+                normal: t.rotate(Vec3A::Y),
+            },
+            Shape::Sphere { radius } => Placed::Sphere { centre, radius },
+            Shape::Capsule {
+                radius,
+                half_length,
+            } => Placed::Capsule {
+                centre,
+                axis: t.rotate(Vec3A::Y),
+                half_length,
+                radius,
+            },
+            Shape::Box { half_extents } => {
+                let rotation = glam::Mat3A::from_quat(t.rotation);
+                Placed::Box {
+                    centre,
+                    rotation,
+                    inverse: rotation.transpose(),
+                    half_extents: half_extents.into(),
+                }
+            }
+        }
+    }
+
+    /// Signed distance of world point `x` to the surface and the outward unit normal there (the
+    /// same as [`Shape::distance`] of the local point, rotated back).
+    #[inline]
+    pub(crate) fn distance(&self, x: Vec3A) -> (f32, Vec3A) {
+        match *self {
+            Placed::Plane { point, normal } => (normal.dot(x - point), normal),
+            Placed::Sphere { centre, radius } => {
+                let d = x - centre;
+                let l = d.length();
+                let n = if l > 1e-12 { d / l } else { Vec3A::Y };
+                (l - radius, n)
+            }
+            Placed::Capsule {
+                centre,
+                axis,
+                half_length,
+                radius,
+            } => {
+                let t = (x - centre).dot(axis).clamp(-half_length, half_length);
+                let d = x - (centre + axis * t);
+                let l = d.length();
+                let n = if l > 1e-12 {
+                    d / l
+                } else {
+                    axis.any_orthonormal_vector()
+                };
+                (l - radius, n)
+            }
+            Placed::Box {
+                centre,
+                rotation,
+                inverse,
+                half_extents,
+            } => {
+                let local = inverse * (x - centre);
+                let (d, n) = Shape::Box {
+                    half_extents: half_extents.into(),
+                }
+                .distance(local);
+                (d, rotation * n)
+            }
+        }
     }
 }
 
@@ -255,6 +377,36 @@ mod tests {
             .validate()
             .is_err()
         );
+    }
+
+    #[test]
+    fn placed_shapes_measure_like_local_ones() {
+        let t = Transform {
+            position: Vec3::new(0.3, -0.2, 1.0),
+            rotation: Quat::from_euler(glam::EulerRot::XYZ, 0.4, -1.1, 0.7),
+        };
+        let shapes = [
+            Shape::Plane,
+            Shape::Sphere { radius: 0.4 },
+            Shape::Capsule {
+                radius: 0.2,
+                half_length: 0.5,
+            },
+            Shape::Box {
+                half_extents: Vec3::new(0.3, 0.6, 0.2),
+            },
+        ];
+        for shape in shapes {
+            let placed = Placed::new(&shape, &t);
+            for k in 0..50 {
+                let f = k as f32;
+                let x = Vec3A::new((f * 0.7).sin(), (f * 1.3).cos(), 1.0 + (f * 0.37).sin());
+                let (d, n) = shape.distance(t.inverse_apply(x));
+                let (pd, pn) = placed.distance(x);
+                assert!((d - pd).abs() < 1e-5, "{shape:?} at {x}: {d} vs {pd}");
+                assert!(t.rotate(n).abs_diff_eq(pn, 1e-4), "{shape:?} at {x}");
+            }
+        }
     }
 
     #[test]

@@ -33,6 +33,7 @@ mod surface_tests;
 mod tests;
 
 pub use reconstruct::{ReconstructionError, ReconstructionMode, reconstruction_error};
+pub use surface::TransitionCollision;
 
 use crate::body::SoftBody;
 use crate::error::SoftBodyError;

@@ -171,7 +171,9 @@ impl TreeCutSoftBody {
         for (i, k) in kids.enumerate() {
             let (x, m) = (self.scratch.positions[i], self.scratch.masses[i]);
             let c = self.add_node_particle(k, x, v_p, m);
-            self.body.set_collides(ParticleId::from_raw(c), false);
+            let joins =
+                self.surface.transition_collision == super::TransitionCollision::Immediately;
+            self.body.set_collides(ParticleId::from_raw(c), joins);
             self.rotation[k.index()] = rot;
             members.push(c);
         }
