@@ -195,7 +195,13 @@ pub fn thesis_rig(rig: &Rig) -> Result<Rig, BuildError> {
     } else {
         rig.clone()
     };
-    let sk = grown.skeleton();
+    let height = rig_height(&grown)?;
+    animlod::build::scaled(&grown, THESIS_HEIGHT / height)
+}
+
+/// Height of a rig: the vertical extent of its joints in the rest pose (model units).
+pub fn rig_height(rig: &Rig) -> Result<f32, BuildError> {
+    let sk = rig.skeleton();
     let model = sk.rest_model_matrices();
     let ys = sk
         .bones()
@@ -208,7 +214,7 @@ pub fn thesis_rig(rig: &Rig) -> Result<Rig, BuildError> {
             what: "rig height".into(),
         });
     }
-    animlod::build::scaled(&grown, THESIS_HEIGHT / height)
+    Ok(height)
 }
 
 /// Character positions for a layout, centred on the origin.

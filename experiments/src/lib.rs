@@ -12,6 +12,7 @@
 #![warn(missing_docs)]
 
 pub mod crowd;
+pub mod crowd_large;
 pub mod net;
 pub mod rig;
 pub mod rng;
