@@ -12,6 +12,7 @@
 mod app;
 mod cli;
 mod crowd;
+mod crowd_large;
 mod error;
 mod font;
 mod machine;
