@@ -229,6 +229,9 @@ pub(crate) struct CrowdSection {
     pub(crate) pipeline: crate::crowd_large::PipelineReport,
     /// Large crowds (1,000 and 10,000 characters), one thread and every core.
     pub(crate) large: Vec<crate::crowd_large::LargeReport>,
+    /// Per-bone priorities against every bone alike, and the derived weights in and out of
+    /// sample, at equal cost.
+    pub(crate) ablation: Vec<crate::crowd_large::AblationReport>,
     /// Wall time of the whole section (s).
     pub(crate) seconds: f64,
 }
@@ -428,7 +431,7 @@ pub(crate) fn run(plan: &CrowdPlan, progress: Progress) -> Result<CrowdOutcome, 
         });
     }
     bar.finish_and_clear();
-    let large = crate::crowd_large::run(&base, plan.quick, &progress)?;
+    let large = crate::crowd_large::run(&base, clip, plan.quick, &progress)?;
 
     let ours_far = reports
         .first()
@@ -444,6 +447,7 @@ pub(crate) fn run(plan: &CrowdPlan, progress: Progress) -> Result<CrowdOutcome, 
         },
         pipeline: large.pipeline,
         large: large.large,
+        ablation: large.ablation,
         seconds: start.elapsed().as_secs_f64(),
     };
     let mut text = section
