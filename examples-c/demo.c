@@ -247,6 +247,40 @@ static int run_crowd(SlodWorld *world, const char *rig_path, unsigned characters
             free(sk);
         }
         printf("crowd matrices bones %zu finite %d\n", nb, finite);
+
+        /* What a host needs to map the matrices to its own mesh: parents and names of the bones,
+         * the skin's joint -> bone map; then the rig's mesh skinned on the CPU, and the error of
+         * the LOD pose (joint origins and tips, pixels through the world's camera). */
+        uint32_t *parents = malloc(nb * sizeof *parents);
+        if (!parents) return 1;
+        CHECK(slod_rig_bone_parents(world, rig, parents, nb, &got));
+        int ordered = 1;
+        for (size_t i = 0; i < got; ++i)
+            ordered &= parents[i] == SLOD_NO_PARENT || parents[i] < i;
+        free(parents);
+        char bone0[128];
+        CHECK(slod_rig_bone_name(world, rig, 0, bone0, sizeof bone0, &name_len));
+        size_t meshes = 0, nv = 0;
+        CHECK(slod_rig_mesh_count(world, rig, &meshes));
+        int skinned_finite = 1;
+        if (meshes > 0) {
+            CHECK(slod_character_skinned_vertices(world, ids[0], 0, NULL, NULL, 0, &nv));
+            float(*pos)[3] = malloc((nv ? nv : 1) * sizeof *pos);
+            float(*nrm)[3] = malloc((nv ? nv : 1) * sizeof *nrm);
+            if (!pos || !nrm) return 1;
+            CHECK(slod_character_skinned_vertices(world, ids[0], 0, pos, nrm, nv, &got));
+            for (size_t i = 0; i < got; ++i)
+                for (int k = 0; k < 3; ++k)
+                    skinned_finite &= isfinite(pos[i][k]) && isfinite(nrm[i][k]) ? 1 : 0;
+            free(pos);
+            free(nrm);
+        }
+        CHECK(slod_character_set_play_once(world, ids[0], true));
+        SlodPoseError err;
+        CHECK(slod_crowd_pose_error(world, crowd, &err));
+        printf("crowd bones ordered %d first %s meshes %zu vertices %zu skinned_finite %d "
+               "error_max_px %.3f\n",
+               ordered, bone0, meshes, nv, skinned_finite, err.max_px);
     }
 
     /* Tear down explicitly: half the characters one by one, the rest with their crowd. */

@@ -80,6 +80,11 @@
 #define SLOD_MAX_GLTF_BYTES (1 << 30)
 
 /**
+ * The parent index of a root bone in `slod_rig_bone_parents`.
+ */
+#define SLOD_NO_PARENT UINT32_MAX
+
+/**
  * Largest playback speed a character accepts (1 = real time).
  */
 #define SLOD_MAX_PLAYBACK_SPEED 1000.0
@@ -136,6 +141,31 @@ enum SlodResult
 typedef enum SlodResult SlodResult;
 #else
 typedef uint32_t SlodResult;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * Where a crowd's bone priorities come from (values for `slod_crowd_set_priority_source`).
+ */
+enum SlodPrioritySource
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /**
+   * The thesis: a weighted average of six sub-priorities (the default).
+   */
+  SLOD_PRIORITY_SOURCE_FACTORS = 0,
+  /**
+   * The measured hold error rate of each bone keyframe.
+   */
+  SLOD_PRIORITY_SOURCE_HOLD_ERROR = 1,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum SlodPrioritySource SlodPrioritySource;
+#else
+typedef uint32_t SlodPrioritySource;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 
@@ -996,6 +1026,73 @@ typedef struct SlodCrowdStats {
 } SlodCrowdStats;
 
 /**
+ * Pose error against full-rate evaluation, measured where a viewer sees it: every joint at
+ * its origin and at its tip (a point one bone length along the bone, so a bone's own rotation
+ * counts), in scene units and in pixels through the world's view.
+ */
+typedef struct SlodPoseError {
+  /**
+   * Joints compared.
+   */
+  uint64_t joints;
+  /**
+   * Joints in view (the pixel figures cover these).
+   */
+  uint64_t visible_joints;
+  /**
+   * Mean error (scene units).
+   */
+  float mean;
+  /**
+   * Largest error (scene units).
+   */
+  float max;
+  /**
+   * Mean on-screen error (pixels).
+   */
+  float mean_px;
+  /**
+   * Largest on-screen error (pixels).
+   */
+  float max_px;
+  /**
+   * Root mean square on-screen error (pixels).
+   */
+  float rms_px;
+} SlodPoseError;
+
+/**
+ * Weights of the six sub-priorities of the thesis' per-keyframe bone priority (only their
+ * ratios matter; each finite and >= 0, not all 0).
+ */
+typedef struct SlodPriorityWeights {
+  /**
+   * Translation change over the key segment.
+   */
+  float translation;
+  /**
+   * Rotation change (speed of the bone's tip).
+   */
+  float rotation;
+  /**
+   * Scale change.
+   */
+  float scale;
+  /**
+   * Number of descendants.
+   */
+  float descendants;
+  /**
+   * Closeness to the root.
+   */
+  float depth;
+  /**
+   * The per-bone user value (`slod_crowd_set_user_priority`).
+   */
+  float user;
+} SlodPriorityWeights;
+
+/**
  * How to add a character. Get one from `slod_default_character_desc`.
  */
 typedef struct SlodCharacterDesc {
@@ -1701,6 +1798,76 @@ SlodResult slod_rig_clip_name(const struct SlodWorld *world,
                               size_t *out_len);
 
 /**
+ * Copies the parent of every bone (`SLOD_NO_PARENT` for a root) to `out`, in bone order
+ * (parents come before their children): with the names, what a host needs to map the
+ * matrices of `slod_character_model_matrices` to its own skeleton.
+ *
+ * Buffer: copy-out counted in bones (`SlodRigInfo::bones`; call with `cap` 0 to size it).
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`,
+ * `SLOD_RESULT_BUFFER_TOO_SMALL`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
+ * valid for a write.
+ */
+SlodResult slod_rig_bone_parents(const struct SlodWorld *world,
+                                 struct SlodRigId rig,
+                                 uint32_t *out,
+                                 size_t cap,
+                                 size_t *out_len);
+
+/**
+ * Copies the name of bone `bone` (the glTF node name) as a NUL-terminated string to `buf`.
+ *
+ * Buffer: copy-out counted in bytes including the NUL (call with `cap` 0 to size it).
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+ * for a bone index out of range, `SLOD_RESULT_BUFFER_TOO_SMALL`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `buf` valid for `cap` writes (NULL if `cap` is 0); `out_len`
+ * valid for a write.
+ */
+SlodResult slod_rig_bone_name(const struct SlodWorld *world,
+                              struct SlodRigId rig,
+                              uint32_t bone,
+                              char *buf,
+                              size_t cap,
+                              size_t *out_len);
+
+/**
+ * Copies the bone of every joint of skin `skin` to `out`: joint `j` of the skin (the index a
+ * mesh's `JOINTS_0` attribute and `slod_character_skinning_matrices` use) drives bone
+ * `out[j]`.
+ *
+ * Buffer: copy-out counted in joints (`slod_rig_skin_joint_count`). Threads: reads the world
+ * only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`,
+ * `SLOD_RESULT_BUFFER_TOO_SMALL`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
+ * valid for a write.
+ */
+SlodResult slod_rig_skin_joints(const struct SlodWorld *world,
+                                struct SlodRigId rig,
+                                uint32_t skin,
+                                uint32_t *out,
+                                size_t cap,
+                                size_t *out_len);
+
+/**
+ * Writes the number of skinned meshes of a rig (every glTF node with a mesh and a skin) to
+ * `*out_count`: the meshes `slod_character_skinned_vertices` skins.
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_count` NULL or valid for a write.
+ */
+SlodResult slod_rig_mesh_count(const struct SlodWorld *world,
+                               struct SlodRigId rig,
+                               size_t *out_count);
+
+/**
  * Writes the duration in seconds of clip `clip` to `*out_seconds`.
  *
  * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`.
@@ -1825,6 +1992,89 @@ SlodResult slod_crowd_character_count(const struct SlodWorld *world,
                                       size_t *out_count);
 
 /**
+ * Writes the pose error of every character of a crowd (see `SlodPoseError`), seen through the
+ * world's view, to `*out_error`. Costs a full-rate evaluation of every character: a
+ * measurement, not a per-frame call.
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_error` NULL or valid for a write.
+ */
+SlodResult slod_crowd_pose_error(const struct SlodWorld *world,
+                                 struct SlodCrowdId crowd,
+                                 struct SlodPoseError *out_error);
+
+/**
+ * Sets the weights of a crowd's six sub-priorities (used with `SLOD_PRIORITY_SOURCE_FACTORS`).
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+ * (nothing changed) for a negative or non-finite weight or all zero.
+ *
+ * # Safety
+ * `world` NULL or a live world; `weights` NULL or valid for a read.
+ */
+SlodResult slod_crowd_set_priority_weights(struct SlodWorld *world,
+                                           struct SlodCrowdId crowd,
+                                           const struct SlodPriorityWeights *weights);
+
+/**
+ * Sets the user priority of bone `bone` in a crowd (finite, >= 0; normalised by the largest
+ * over the skeleton; every bone starts at 1).
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+ * (nothing changed) for a bone out of range or a bad value.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_crowd_set_user_priority(struct SlodWorld *world,
+                                        struct SlodCrowdId crowd,
+                                        uint32_t bone,
+                                        float value);
+
+/**
+ * Chooses where a crowd's bone priorities come from (`SlodPrioritySource`, as `uint32_t`).
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+ * for an unknown value (nothing changed).
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_crowd_set_priority_source(struct SlodWorld *world,
+                                          struct SlodCrowdId crowd,
+                                          uint32_t source);
+
+/**
+ * Sets the scheduler's period mapping of a crowd: `period_scale` (finite, > 0; the update
+ * period in seconds of a bone of priority 1 at camera ratio 1/2) and `min_priority` (in
+ * [0, 1]; priorities below count as this).
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+ * (nothing changed).
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_crowd_set_scheduler(struct SlodWorld *world,
+                                    struct SlodCrowdId crowd,
+                                    float period_scale,
+                                    float min_priority);
+
+/**
+ * Writes where a crowd's bone priorities come from to `*out_source`.
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_source` NULL or valid for a write.
+ */
+SlodResult slod_crowd_priority_source(const struct SlodWorld *world,
+                                      struct SlodCrowdId crowd,
+                                      SlodPrioritySource *out_source);
+
+/**
  * The default character: at the origin, clip 0 from time 0, speed 1. Returns a value the host
  * owns.
  */
@@ -1935,6 +2185,68 @@ SlodResult slod_character_skinning_matrices(const struct SlodWorld *world,
                                             float *out,
                                             size_t cap,
                                             size_t *out_len);
+
+/**
+ * Makes a character play its clip once and stop on the last pose (`once` true), or loop it
+ * (false, the default).
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_character_set_play_once(struct SlodWorld *world,
+                                        struct SlodCharacterId character,
+                                        bool once);
+
+/**
+ * Writes whether a character's pose changed in the last `slod_crowd_advance` to
+ * `*out_changed`. False means every bone held: the host's skinned vertices (or uploaded
+ * palette) from the previous frame are still exact and can be reused.
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_changed` NULL or valid for a write.
+ */
+SlodResult slod_character_pose_changed(const struct SlodWorld *world,
+                                       struct SlodCharacterId character,
+                                       bool *out_changed);
+
+/**
+ * Writes a character's pose error against full-rate evaluation (joint origins and tips,
+ * pixels through the world's view; see `SlodPoseError`) to `*out_error`.
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_error` NULL or valid for a write.
+ */
+SlodResult slod_character_pose_error(const struct SlodWorld *world,
+                                     struct SlodCharacterId character,
+                                     struct SlodPoseError *out_error);
+
+/**
+ * Skins mesh `mesh` of a character's rig on the CPU (linear blend of up to four joints per
+ * vertex) and copies its positions and normals (float[3] each, skeleton model space; add the
+ * character's position for world space) to `positions` and `normals`.
+ *
+ * Buffer: copy-out counted in vertices, both buffers `cap` long (call with `cap` 0 to size
+ * them); nothing is written unless both fit. Threads: reads the world only. Errors:
+ * `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT` for a mesh index out of range
+ * (`slod_rig_mesh_count`), `SLOD_RESULT_BUFFER_TOO_SMALL`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `positions` and `normals` valid for `cap` writes each (NULL if
+ * `cap` is 0); `out_len` valid for a write.
+ */
+SlodResult slod_character_skinned_vertices(const struct SlodWorld *world,
+                                           struct SlodCharacterId character,
+                                           uint32_t mesh,
+                                           float (*positions)[3],
+                                           float (*normals)[3],
+                                           size_t cap,
+                                           size_t *out_len);
 
 #ifdef __cplusplus
 }  // extern "C"

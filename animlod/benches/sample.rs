@@ -51,12 +51,12 @@ fn bench(c: &mut Criterion) {
         ),
         (
             "gdbot153_walk",
-            Arc::new(grown_to(&gdbot, 153).unwrap()),
+            Arc::new(grown_to(&gdbot, 153, 0.3).unwrap()),
             "walk",
         ),
         (
             "gdbot153_walk_all_channels",
-            Arc::new(grown_to(&rig("GDQuest_GDBot.glb", &all), 153).unwrap()),
+            Arc::new(grown_to(&rig("GDQuest_GDBot.glb", &all), 153, 0.3).unwrap()),
             "walk",
         ),
         ("fox_walk", Arc::new(rig("Fox.glb", &keep)), "Walk"),

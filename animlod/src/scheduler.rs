@@ -104,6 +104,10 @@ pub(crate) fn schedule(
     count
 }
 
+/// Fraction of the tolerance past which a bone updates together with the rest of its
+/// character on a frame when some bone of it must update (see [`ErrorBoundJob`]).
+const BATCH: f32 = 0.5;
+
 /// One character's error-bounded scheduling step ([`crate::LodMode::ErrorBound`]), as a job
 /// with named fields (in the manner of ozz-animation's sampling jobs). Each animated-bone slot
 /// `i` adds `step · rates[i]` (the drift its hold causes over this frame, model units; plus
@@ -172,12 +176,29 @@ impl ErrorBoundJob<'_> {
             self.tolerance_px,
             self.clock,
         );
+        // First pass: does any slot reach the tolerance this frame? If none does, the whole
+        // character holds (its palette and skinned vertices are reused).
+        let mut due = false;
+        for i in 0..n {
+            let a = ancestors[i] as usize;
+            let above = if a < i { chain[a] } else { 0.0 };
+            chain[i] = above + drift[i] + step * rates[i];
+            due |= chain[i] * gain >= tolerance;
+        }
+        // Second pass: when the character updates anyway, bones past `BATCH` of the tolerance
+        // update with it, so that its updates bunch into few frames and it holds whole in
+        // between (holding a whole character is what saves palette and skinning).
+        let threshold = if due {
+            tolerance * BATCH
+        } else {
+            f32::INFINITY
+        };
         let mut count = 0;
         for i in 0..n {
             let a = ancestors[i] as usize;
             let above = if a < i { chain[a] } else { 0.0 };
             let d = drift[i] + step * rates[i];
-            let update = (above + d) * gain >= tolerance;
+            let update = (above + d) * gain >= threshold;
             go[i] = update as u8;
             drift[i] = if update { 0.0 } else { d };
             chain[i] = above + drift[i];

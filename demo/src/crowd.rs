@@ -43,6 +43,7 @@ pub(crate) struct CrowdPlan {
     distances: Vec<f32>,
     warmup: usize,
     frames: usize,
+    quick: bool,
 }
 
 impl CrowdPlan {
@@ -69,6 +70,7 @@ impl CrowdPlan {
             distances,
             warmup: if quick { 2 } else { thesis.warmup_frames },
             frames: if quick { 4 } else { thesis.frames },
+            quick,
         }
     }
 }
@@ -223,6 +225,13 @@ pub(crate) struct CrowdSection {
     /// Frame cost with LOD over without at the farthest distance: the thesis' (12 / 43.6 fps,
     /// rendering included) and ours (first sweep, animation only).
     pub(crate) far_cost_ratio: FarCost,
+    /// The whole per-character pipeline, per stage, with and without LOD.
+    pub(crate) pipeline: crate::crowd_large::PipelineReport,
+    /// Large crowds (1,000 and 10,000 characters), one thread and every core.
+    pub(crate) large: Vec<crate::crowd_large::LargeReport>,
+    /// Per-bone priorities against every bone alike, and the derived weights in and out of
+    /// sample, at equal cost.
+    pub(crate) ablation: Vec<crate::crowd_large::AblationReport>,
     /// Wall time of the whole section (s).
     pub(crate) seconds: f64,
 }
@@ -422,6 +431,7 @@ pub(crate) fn run(plan: &CrowdPlan, progress: Progress) -> Result<CrowdOutcome, 
         });
     }
     bar.finish_and_clear();
+    let large = crate::crowd_large::run(&base, clip, plan.quick, &progress)?;
 
     let ours_far = reports
         .first()
@@ -435,14 +445,19 @@ pub(crate) fn run(plan: &CrowdPlan, progress: Progress) -> Result<CrowdOutcome, 
             thesis: THESIS.far_cost_ratio(),
             ours: ours_far,
         },
+        pipeline: large.pipeline,
+        large: large.large,
+        ablation: large.ablation,
         seconds: start.elapsed().as_secs_f64(),
     };
-    let text = section
+    let mut text = section
         .sweeps
         .iter()
         .map(|s| render_sweep(&section, s))
         .collect::<Vec<_>>()
         .join("\n");
+    text += "\n";
+    text += &large.text;
     Ok(CrowdOutcome { section, text })
 }
 
@@ -504,7 +519,7 @@ fn render_sweep(section: &CrowdSection, s: &SweepReport) -> String {
         t.note("ours: animation only (sampling, holding, concatenation), median frame time.");
     }
     t.note(format!(
-        "errors: joints on screen, {:.0}-pixel-high view, {:.0}° field of view, against \
+        "errors: joints (origins and tips) on screen, camera outside the crowd, {:.0}-pixel-high view, {:.0}° field of view, against \
          full-rate evaluation.",
         c.viewport_height_px, c.fov_y_deg
     ));

@@ -12,6 +12,7 @@
 mod app;
 mod cli;
 mod crowd;
+mod crowd_large;
 mod engine;
 mod error;
 mod font;

@@ -190,12 +190,19 @@ impl SweepRow {
 /// A real rig turned into the thesis' character: replicated to [`THESIS_BONES`] bones (if it has
 /// fewer) and scaled to [`THESIS_HEIGHT`] units tall (height of its rest-pose joints).
 pub fn thesis_rig(rig: &Rig) -> Result<Rig, BuildError> {
+    // Copies stand a fifth of the rig's height apart around the original.
     let grown = if rig.bone_count() < THESIS_BONES {
-        grown_to(rig, THESIS_BONES)?
+        grown_to(rig, THESIS_BONES, 0.2 * rig_height(rig)?)?
     } else {
         rig.clone()
     };
-    let sk = grown.skeleton();
+    let height = rig_height(&grown)?;
+    animlod::build::scaled(&grown, THESIS_HEIGHT / height)
+}
+
+/// Height of a rig: the vertical extent of its joints in the rest pose (model units).
+pub fn rig_height(rig: &Rig) -> Result<f32, BuildError> {
+    let sk = rig.skeleton();
     let model = sk.rest_model_matrices();
     let ys = sk
         .bones()
@@ -208,7 +215,7 @@ pub fn thesis_rig(rig: &Rig) -> Result<Rig, BuildError> {
             what: "rig height".into(),
         });
     }
-    animlod::build::scaled(&grown, THESIS_HEIGHT / height)
+    Ok(height)
 }
 
 /// Character positions for a layout, centred on the origin.
@@ -430,6 +437,18 @@ mod tests {
         let h = ys.iter().copied().fold(f32::MIN, f32::max)
             - ys.iter().copied().fold(f32::MAX, f32::min);
         assert!((h - THESIS_HEIGHT).abs() < 1e-2, "{h}");
+        // Copies stand apart: every copied joint is a tenth of the height or more from its
+        // original.
+        for b in sk.bones().filter(|&b| sk.is_joint(b)) {
+            if let Some((orig, _)) = sk.name(b).split_once('#') {
+                let o = sk.find(orig).unwrap();
+                let d = model[b.index()]
+                    .w_axis
+                    .truncate()
+                    .distance(model[o.index()].w_axis.truncate());
+                assert!(d > 0.1 * THESIS_HEIGHT, "{} is {d} from {orig}", sk.name(b));
+            }
+        }
         // Scaling keeps the constant channels constant (the tolerance is relative).
         let base = animlod::build::import_path(&asset("GDQuest_GDBot.glb")).unwrap();
         let walk = |r: &Rig| {

@@ -16,7 +16,9 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod ablation;
 pub mod crowd;
+pub mod crowd_large;
 pub mod engine;
 pub mod net;
 pub mod perception;

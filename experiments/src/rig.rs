@@ -2,14 +2,22 @@
 //! (`animation-lod-bone-priority-thesis.txt`, chapter 13) made by replicating a real skeleton
 //! and its real motion.
 
-use animlod::{BoneDesc, BoneId, BuildError, ChannelDesc, Clip, MAX_BONES, Rig, Skeleton};
+use animlod::{
+    BoneDesc, BoneId, BuildError, ChannelDesc, Clip, Interpolation, Keys, MAX_BONES, Rig, Skeleton,
+};
+use glam::Vec3;
 
 /// A rig of exactly `bones` bones (at least the current count) made by replicating this one:
 /// copies of every non-root bone, with their channels, hang under the same roots until the
 /// count is reached (the last copy keeps a parents-first prefix). Copies join every skin their
 /// original is in. The thesis' crowd test uses 153-bone characters; no real rig here has that
 /// many, so this builds one from a real skeleton and real motion.
-pub fn grown_to(rig: &Rig, bones: usize) -> Result<Rig, BuildError> {
+///
+/// Copy `k` is moved sideways (its top bones' rest translation and translation keys shifted
+/// horizontally, around a ring of radius `spread`), so copies do not sit on top of each other:
+/// co-located copies would make every error and every priority count the same motion twice at
+/// one place.
+pub fn grown_to(rig: &Rig, bones: usize, spread: f32) -> Result<Rig, BuildError> {
     let n0 = rig.skeleton().len();
     if bones < n0 || bones > MAX_BONES {
         return Err(BuildError::TooManyBones(bones));
@@ -21,6 +29,8 @@ pub fn grown_to(rig: &Rig, bones: usize) -> Result<Rig, BuildError> {
     }
     let mut descs = base.clone();
     let mut origin: Vec<usize> = (0..n0).collect();
+    // Per bone: the horizontal offset added to its translation (top bones of copies only).
+    let mut offset: Vec<Vec3> = vec![Vec3::ZERO; n0];
     let mut copy = 0;
     while descs.len() < bones {
         copy += 1;
@@ -30,14 +40,24 @@ pub fn grown_to(rig: &Rig, bones: usize) -> Result<Rig, BuildError> {
                 break;
             }
             let p = base[i].parent.map(|p| p.index()).unwrap_or(0);
-            let new_parent = if base[p].parent.is_none() { p } else { map[p] };
+            let top = base[p].parent.is_none();
+            let new_parent = if top { p } else { map[p] };
             map[i] = descs.len();
             origin.push(i);
-            descs.push(BoneDesc {
+            let angle = copy as f32 * 2.4; // golden-angle steps around the ring
+            let shift = if top {
+                Vec3::new(angle.cos(), 0.0, angle.sin()) * spread
+            } else {
+                Vec3::ZERO
+            };
+            offset.push(shift);
+            let mut desc = BoneDesc {
                 name: format!("{}#{copy}", base[i].name),
                 parent: Some(BoneId::new(new_parent)),
                 ..base[i].clone()
-            });
+            };
+            desc.rest.translation += shift;
+            descs.push(desc);
         }
     }
     let skeleton = Skeleton::new(descs)?;
@@ -51,9 +71,21 @@ pub fn grown_to(rig: &Rig, bones: usize) -> Result<Rig, BuildError> {
                     c.channels()
                         .iter()
                         .filter(|ch| ch.bone.index() == orig)
-                        .map(|ch| ChannelDesc {
-                            bone: BoneId::new(new),
-                            ..ch.clone()
+                        .map(|ch| {
+                            let mut ch = ChannelDesc {
+                                bone: BoneId::new(new),
+                                ..ch.clone()
+                            };
+                            if let Keys::Translation(v) = &mut ch.keys {
+                                // Cubic splines keep their tangents (every third value).
+                                let cubic = ch.interpolation == Interpolation::CubicSpline;
+                                for (k, x) in v.iter_mut().enumerate() {
+                                    if !cubic || k % 3 == 1 {
+                                        *x += offset[new];
+                                    }
+                                }
+                            }
+                            ch
                         }),
                 );
             }

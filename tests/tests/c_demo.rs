@@ -163,6 +163,19 @@ fn c_demo_runs_the_net_and_the_crowd() {
     assert!(field::<f64>(cape, "touching") > 0.0, "{cape}");
     let lowest: f64 = field(cape, "lowest");
     assert!(lowest > 0.0 && lowest < 0.6, "{cape}");
+    // The rig's structure and its mesh skinned on the CPU, over the C ABI.
+    let skin_line = lines
+        .iter()
+        .find(|l| l.starts_with("crowd bones ordered"))
+        .expect("skinning line");
+    assert_eq!(field::<i32>(skin_line, "ordered"), 1, "{skin_line}");
+    assert!(field::<usize>(skin_line, "meshes") >= 1, "{skin_line}");
+    assert!(field::<usize>(skin_line, "vertices") > 0, "{skin_line}");
+    assert_eq!(field::<i32>(skin_line, "skinned_finite"), 1, "{skin_line}");
+    assert!(
+        field::<f64>(skin_line, "error_max_px").is_finite(),
+        "{skin_line}"
+    );
     assert!(out.contains("world left cloths 0 rigs 0 crowds 0 characters 0"));
     assert!(out.trim_end().ends_with("demo ok"));
 }

@@ -2,6 +2,8 @@
 //! LOD mode (the scheduler of `animation-lod-bone-priority-thesis.txt`, chapters 11–13, and
 //! the budget and error-bound modes beyond it).
 
+use std::time::Instant;
+
 use glam::{Affine3A, Mat4};
 use salience::View;
 
@@ -319,6 +321,7 @@ impl Crowd {
         }
         st.bones_interpolated = count as u64;
         st.bones_held = animated - count as u64;
+        let clock = self.stage_timing.then(Instant::now);
         s.trs.prepare(clip.base_pose());
         clip.locate_all(c.time, &mut s.cursors);
         if full {
@@ -326,8 +329,10 @@ impl Crowd {
             clip.compose(&s.trs, locals);
             last[..slots].fill(c.clock);
             drift[..slots].fill(0.0);
+            let sampled = clock.map(|t| (t, Instant::now()));
             concat_moving(parents, &clip.moving, locals, models);
             st.bones_concatenated = clip.moving.len() as u64;
+            stage_times(&mut st, sampled);
             return st;
         }
         // Branch-free: the update pattern is data-dependent.
@@ -339,6 +344,7 @@ impl Crowd {
             k += g as usize;
         }
         clip.sample_slots(&s.cursors, &s.updated[..k], &mut s.trs, locals);
+        let sampled = clock.map(|t| (t, Instant::now()));
         let sentinel = rig.skeleton().parents_sentinel();
         st.bones_concatenated = concat_changed(
             parents,
@@ -349,6 +355,17 @@ impl Crowd {
             locals,
             models,
         ) as u64;
+        stage_times(&mut st, sampled);
         st
+    }
+}
+
+/// With stage timing on: the sampling time (from `start` to `sampled`) and the concatenation
+/// time (from `sampled` to now) of one character, added to its stats.
+#[inline]
+fn stage_times(st: &mut FrameStats, stamps: Option<(Instant, Instant)>) {
+    if let Some((start, sampled)) = stamps {
+        st.sample_ns += (sampled - start).as_nanos() as u64;
+        st.concat_ns += sampled.elapsed().as_nanos() as u64;
     }
 }

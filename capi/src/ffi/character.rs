@@ -7,7 +7,7 @@ use animlod::{CharacterId, Crowd};
 use glam::Mat4;
 
 use super::arena::RawId;
-use super::boundary::{arg, arg_mut, boundary, copy_out_map, write_out};
+use super::boundary::{arg, arg_mut, boundary, check_copy_out, copy_out_map, write_out};
 use super::cloth::{in_range, position};
 use super::crowd::{crowd_error, crowd_mut};
 use super::ids::{SlodCharacterId, SlodCrowdId};
@@ -299,4 +299,375 @@ pub unsafe extern "C" fn slod_character_skinning_matrices(
             unsafe { copy_out_map(&m, Mat4::to_cols_array, out, cap, out_len, "out") }
         })
     })
+}
+
+/// Makes a character play its clip once and stop on the last pose (`once` true), or loop it
+/// (false, the default).
+///
+/// Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`.
+///
+/// # Safety
+/// `world` NULL or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_character_set_play_once(
+    world: *mut SlodWorld,
+    character: SlodCharacterId,
+    once: bool,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        let (c, cid) = character_mut(world, character)?;
+        c.set_play_once(cid, once).map_err(crowd_error)
+    })
+}
+
+/// Writes whether a character's pose changed in the last `slod_crowd_advance` to
+/// `*out_changed`. False means every bone held: the host's skinned vertices (or uploaded
+/// palette) from the previous frame are still exact and can be reused.
+///
+/// Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+///
+/// # Safety
+/// `world` NULL or a live world; `out_changed` NULL or valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_character_pose_changed(
+    world: *const SlodWorld,
+    character: SlodCharacterId,
+    out_changed: *mut bool,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world.
+        let world = unsafe { arg(world, "world") }?;
+        let (c, cid) = character_ref(world, character)?;
+        let changed = c.pose_changed(cid).map_err(crowd_error)?;
+        // SAFETY: caller contract: NULL or valid for a write.
+        unsafe { write_out(out_changed, changed, "out_changed") }
+    })
+}
+
+/// Writes a character's pose error against full-rate evaluation (joint origins and tips,
+/// pixels through the world's view; see `SlodPoseError`) to `*out_error`.
+///
+/// Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+///
+/// # Safety
+/// `world` NULL or a live world; `out_error` NULL or valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_character_pose_error(
+    world: *const SlodWorld,
+    character: SlodCharacterId,
+    out_error: *mut super::crowd::SlodPoseError,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world.
+        let world = unsafe { arg(world, "world") }?;
+        let (c, cid) = character_ref(world, character)?;
+        let e = c.pose_error(cid, &world.view).map_err(crowd_error)?;
+        // SAFETY: caller contract: NULL or valid for a write.
+        unsafe { write_out(out_error, e.into(), "out_error") }
+    })
+}
+
+thread_local! {
+    /// Skinned positions and normals of the last call on this thread.
+    static SKINNED: RefCell<(Vec<glam::Vec3>, Vec<glam::Vec3>)> =
+        const { RefCell::new((Vec::new(), Vec::new())) };
+}
+
+/// Skins mesh `mesh` of a character's rig on the CPU (linear blend of up to four joints per
+/// vertex) and copies its positions and normals (float[3] each, skeleton model space; add the
+/// character's position for world space) to `positions` and `normals`.
+///
+/// Buffer: copy-out counted in vertices, both buffers `cap` long (call with `cap` 0 to size
+/// them); nothing is written unless both fit. Threads: reads the world only. Errors:
+/// `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT` for a mesh index out of range
+/// (`slod_rig_mesh_count`), `SLOD_RESULT_BUFFER_TOO_SMALL`.
+///
+/// # Safety
+/// `world` NULL or a live world; `positions` and `normals` valid for `cap` writes each (NULL if
+/// `cap` is 0); `out_len` valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_character_skinned_vertices(
+    world: *const SlodWorld,
+    character: SlodCharacterId,
+    mesh: u32,
+    positions: *mut [f32; 3],
+    normals: *mut [f32; 3],
+    cap: usize,
+    out_len: *mut usize,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world.
+        let world = unsafe { arg(world, "world") }?;
+        let (c, cid) = character_ref(world, character)?;
+        let rig = c.rig();
+        let m = rig.meshes().get(mesh as usize).ok_or_else(|| {
+            FfiError::invalid(
+                "mesh",
+                format!(
+                    "mesh {mesh} is out of range (the rig has {})",
+                    rig.meshes().len()
+                ),
+            )
+        })?;
+        let joints = rig.skin(m.skin).map_or(0, |s| s.joints.len());
+        let n = m.vertex_count();
+        // Sizing calls and short buffers end here, before any skinning.
+        // SAFETY: caller contract: `out_len` valid for a write.
+        unsafe { check_copy_out(n, positions, cap, out_len, "positions") }?;
+        if positions.is_null() {
+            return Ok(());
+        }
+        if normals.is_null() {
+            return Err(FfiError::Null("normals"));
+        }
+        SKINNING.with(|palette| {
+            SKINNED.with(|out| {
+                let (mut palette, mut out) = (palette.borrow_mut(), out.borrow_mut());
+                palette.resize(joints, Mat4::IDENTITY);
+                c.skinning_matrices(cid, m.skin, &mut palette)
+                    .map_err(crowd_error)?;
+                let (p, nrm) = &mut *out;
+                p.resize(n, glam::Vec3::ZERO);
+                nrm.resize(n, glam::Vec3::ZERO);
+                animlod::SkinningJob {
+                    mesh: m,
+                    palette: &palette,
+                    positions: p,
+                    normals: nrm,
+                }
+                .run()
+                .map_err(crowd_error)?;
+                // SAFETY: caller contract: `normals` valid for `cap` >= n writes.
+                unsafe {
+                    copy_out_map(nrm, glam::Vec3::to_array, normals, cap, out_len, "normals")
+                }?;
+                // SAFETY: caller contract: `positions` valid for `cap` writes, `out_len` for one.
+                unsafe {
+                    copy_out_map(
+                        p,
+                        glam::Vec3::to_array,
+                        positions,
+                        cap,
+                        out_len,
+                        "positions",
+                    )
+                }
+            })
+        })
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    //! The rig, crowd and character calls issue 13 added, on a real rig.
+    use super::super::*;
+    use std::ptr::{null, null_mut};
+
+    #[test]
+    fn rig_structure_skinning_and_lod_controls_over_the_c_abi() {
+        let bytes = std::fs::read(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../assets/gltf/GDQuest_GDBot.glb"
+        ))
+        .unwrap();
+        let mut w = null_mut();
+        let (mut rig, mut crowd, mut ch) = (
+            SlodRigId::default(),
+            SlodCrowdId::default(),
+            SlodCharacterId::default(),
+        );
+        // SAFETY: a live world throughout; every buffer is valid for the length passed.
+        unsafe {
+            assert_eq!(
+                slod_world_create(&slod_default_world_desc(), &mut w),
+                SlodResult::Ok
+            );
+            assert_eq!(
+                slod_rig_load_memory(w, bytes.as_ptr(), bytes.len(), &mut rig),
+                SlodResult::Ok
+            );
+            assert_eq!(
+                slod_crowd_create(w, rig, &slod_default_crowd_desc(), &mut crowd),
+                SlodResult::Ok
+            );
+            let mut desc = slod_default_character_desc();
+            desc.position = [0.0, 0.0, -5.0];
+            assert_eq!(
+                slod_character_create(w, crowd, &desc, &mut ch),
+                SlodResult::Ok
+            );
+
+            // Parents: sized with cap 0, then copied; parents come first.
+            let mut n = 0;
+            assert_eq!(
+                slod_rig_bone_parents(w, rig, null_mut(), 0, &mut n),
+                SlodResult::Ok
+            );
+            let mut parents = vec![0u32; n];
+            assert_eq!(
+                slod_rig_bone_parents(w, rig, parents.as_mut_ptr(), n, &mut n),
+                SlodResult::Ok
+            );
+            assert_eq!(parents[0], SLOD_NO_PARENT);
+            assert!(
+                parents
+                    .iter()
+                    .enumerate()
+                    .skip(1)
+                    .all(|(i, &p)| p == SLOD_NO_PARENT || (p as usize) < i)
+            );
+            let mut name = [0 as std::ffi::c_char; 64];
+            let mut len = 0;
+            assert_eq!(
+                slod_rig_bone_name(w, rig, 0, name.as_mut_ptr(), 64, &mut len),
+                SlodResult::Ok
+            );
+            assert!(len > 1);
+            assert_eq!(
+                slod_rig_bone_name(w, rig, n as u32, name.as_mut_ptr(), 64, &mut len),
+                SlodResult::InvalidArgument
+            );
+            // Skin joints → bones.
+            let mut joints = 0;
+            assert_eq!(
+                slod_rig_skin_joint_count(w, rig, 0, &mut joints),
+                SlodResult::Ok
+            );
+            let mut map = vec![0u32; joints];
+            assert_eq!(
+                slod_rig_skin_joints(w, rig, 0, map.as_mut_ptr(), joints, &mut len),
+                SlodResult::Ok
+            );
+            assert!(map.iter().all(|&b| (b as usize) < n));
+
+            // Skinned vertices: sized with cap 0; a short buffer gets nothing.
+            let mut meshes = 0;
+            assert_eq!(slod_rig_mesh_count(w, rig, &mut meshes), SlodResult::Ok);
+            assert!(meshes >= 1);
+            let mut v = 0;
+            assert_eq!(
+                slod_character_skinned_vertices(w, ch, 0, null_mut(), null_mut(), 0, &mut v),
+                SlodResult::Ok
+            );
+            assert!(v > 0);
+            let mut short = vec![[0.0f32; 3]; 1];
+            assert_eq!(
+                slod_character_skinned_vertices(
+                    w,
+                    ch,
+                    0,
+                    short.as_mut_ptr(),
+                    short.as_mut_ptr(),
+                    1,
+                    &mut len
+                ),
+                SlodResult::BufferTooSmall
+            );
+            assert_eq!(short[0], [0.0; 3]);
+            let (mut p, mut nrm) = (vec![[f32::NAN; 3]; v], vec![[f32::NAN; 3]; v]);
+            assert_eq!(
+                slod_character_skinned_vertices(
+                    w,
+                    ch,
+                    0,
+                    p.as_mut_ptr(),
+                    nrm.as_mut_ptr(),
+                    v,
+                    &mut v
+                ),
+                SlodResult::Ok
+            );
+            assert!(p.iter().chain(&nrm).flatten().all(|x| x.is_finite()));
+            assert_eq!(
+                slod_character_skinned_vertices(
+                    w,
+                    ch,
+                    meshes as u32,
+                    p.as_mut_ptr(),
+                    nrm.as_mut_ptr(),
+                    v,
+                    &mut v
+                ),
+                SlodResult::InvalidArgument
+            );
+
+            // Play once, pose changed, pose error (0 at full detail).
+            assert_eq!(slod_character_set_play_once(w, ch, true), SlodResult::Ok);
+            assert_eq!(
+                slod_crowd_advance(w, crowd, 0.016, null_mut()),
+                SlodResult::Ok
+            );
+            let mut changed = false;
+            assert_eq!(
+                slod_character_pose_changed(w, ch, &mut changed),
+                SlodResult::Ok
+            );
+            assert!(changed);
+            let mut e = SlodPoseError::default();
+            assert_eq!(slod_character_pose_error(w, ch, &mut e), SlodResult::Ok);
+            assert_eq!((e.max, e.max_px), (0.0, 0.0));
+            assert!(e.joints > 0);
+            assert_eq!(slod_crowd_pose_error(w, crowd, &mut e), SlodResult::Ok);
+            assert_eq!(e.max, 0.0);
+
+            // Priority and scheduler controls: bad values refused.
+            let bad = SlodPriorityWeights {
+                translation: -1.0,
+                rotation: 1.0,
+                scale: 0.0,
+                descendants: 0.0,
+                depth: 0.0,
+                user: 0.0,
+            };
+            assert_eq!(
+                slod_crowd_set_priority_weights(w, crowd, &bad),
+                SlodResult::InvalidArgument
+            );
+            assert_eq!(
+                slod_crowd_set_priority_weights(w, crowd, null()),
+                SlodResult::NullArgument
+            );
+            let good = SlodPriorityWeights {
+                translation: -bad.translation,
+                ..bad
+            };
+            assert_eq!(
+                slod_crowd_set_priority_weights(w, crowd, &good),
+                SlodResult::Ok
+            );
+            assert_eq!(
+                slod_crowd_set_user_priority(w, crowd, n as u32, 1.0),
+                SlodResult::InvalidArgument
+            );
+            assert_eq!(
+                slod_crowd_set_user_priority(w, crowd, 0, 2.0),
+                SlodResult::Ok
+            );
+            assert_eq!(
+                slod_crowd_set_priority_source(w, crowd, 7),
+                SlodResult::InvalidArgument
+            );
+            assert_eq!(
+                slod_crowd_set_priority_source(w, crowd, SlodPrioritySource::HoldError as u32),
+                SlodResult::Ok
+            );
+            let mut source = SlodPrioritySource::Factors;
+            assert_eq!(
+                slod_crowd_priority_source(w, crowd, &mut source),
+                SlodResult::Ok
+            );
+            assert_eq!(source, SlodPrioritySource::HoldError);
+            assert_eq!(
+                slod_crowd_set_scheduler(w, crowd, 0.0, 0.05),
+                SlodResult::InvalidArgument
+            );
+            assert_eq!(
+                slod_crowd_set_scheduler(w, crowd, 0.02, 0.05),
+                SlodResult::Ok
+            );
+            slod_world_destroy(w);
+        }
+    }
 }

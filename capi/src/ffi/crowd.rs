@@ -384,3 +384,226 @@ pub unsafe extern "C" fn slod_crowd_character_count(
         unsafe { write_out(out_count, c.len(), "out_count") }
     })
 }
+
+/// Pose error against full-rate evaluation, measured where a viewer sees it: every joint at
+/// its origin and at its tip (a point one bone length along the bone, so a bone's own rotation
+/// counts), in scene units and in pixels through the world's view.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SlodPoseError {
+    /// Joints compared.
+    pub joints: u64,
+    /// Joints in view (the pixel figures cover these).
+    pub visible_joints: u64,
+    /// Mean error (scene units).
+    pub mean: f32,
+    /// Largest error (scene units).
+    pub max: f32,
+    /// Mean on-screen error (pixels).
+    pub mean_px: f32,
+    /// Largest on-screen error (pixels).
+    pub max_px: f32,
+    /// Root mean square on-screen error (pixels).
+    pub rms_px: f32,
+}
+
+impl From<animlod::PoseError> for SlodPoseError {
+    fn from(e: animlod::PoseError) -> SlodPoseError {
+        SlodPoseError {
+            joints: e.joints,
+            visible_joints: e.visible_joints,
+            mean: e.mean,
+            max: e.max,
+            mean_px: e.mean_px,
+            max_px: e.max_px,
+            rms_px: e.rms_px,
+        }
+    }
+}
+
+/// Writes the pose error of every character of a crowd (see `SlodPoseError`), seen through the
+/// world's view, to `*out_error`. Costs a full-rate evaluation of every character: a
+/// measurement, not a per-frame call.
+///
+/// Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+///
+/// # Safety
+/// `world` NULL or a live world; `out_error` NULL or valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_crowd_pose_error(
+    world: *const SlodWorld,
+    crowd: SlodCrowdId,
+    out_error: *mut SlodPoseError,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world.
+        let world = unsafe { arg(world, "world") }?;
+        let c = world.crowds.get(RawId::from(crowd), "crowd")?;
+        let e = c.total_pose_error(&world.view);
+        // SAFETY: caller contract: NULL or valid for a write.
+        unsafe { write_out(out_error, e.into(), "out_error") }
+    })
+}
+
+/// Weights of the six sub-priorities of the thesis' per-keyframe bone priority (only their
+/// ratios matter; each finite and >= 0, not all 0).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SlodPriorityWeights {
+    /// Translation change over the key segment.
+    pub translation: f32,
+    /// Rotation change (speed of the bone's tip).
+    pub rotation: f32,
+    /// Scale change.
+    pub scale: f32,
+    /// Number of descendants.
+    pub descendants: f32,
+    /// Closeness to the root.
+    pub depth: f32,
+    /// The per-bone user value (`slod_crowd_set_user_priority`).
+    pub user: f32,
+}
+
+/// Sets the weights of a crowd's six sub-priorities (used with `SLOD_PRIORITY_SOURCE_FACTORS`).
+///
+/// Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+/// (nothing changed) for a negative or non-finite weight or all zero.
+///
+/// # Safety
+/// `world` NULL or a live world; `weights` NULL or valid for a read.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_crowd_set_priority_weights(
+    world: *mut SlodWorld,
+    crowd: SlodCrowdId,
+    weights: *const SlodPriorityWeights,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        // SAFETY: caller contract: NULL or valid for a read.
+        let w = *unsafe { arg(weights, "weights") }?;
+        let c = crowd_mut(world, crowd)?;
+        c.set_priority_weights(animlod::PriorityWeights {
+            translation: w.translation,
+            rotation: w.rotation,
+            scale: w.scale,
+            descendants: w.descendants,
+            depth: w.depth,
+            user: w.user,
+        })
+        .map_err(crowd_error)
+    })
+}
+
+/// Sets the user priority of bone `bone` in a crowd (finite, >= 0; normalised by the largest
+/// over the skeleton; every bone starts at 1).
+///
+/// Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+/// (nothing changed) for a bone out of range or a bad value.
+///
+/// # Safety
+/// `world` NULL or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_crowd_set_user_priority(
+    world: *mut SlodWorld,
+    crowd: SlodCrowdId,
+    bone: u32,
+    value: f32,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        let c = crowd_mut(world, crowd)?;
+        let bone = super::rig::check_bone(c.rig(), bone)?;
+        c.set_user_priority(bone, value).map_err(crowd_error)
+    })
+}
+
+/// Where a crowd's bone priorities come from (values for `slod_crowd_set_priority_source`).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SlodPrioritySource {
+    /// The thesis: a weighted average of six sub-priorities (the default).
+    Factors = 0,
+    /// The measured hold error rate of each bone keyframe.
+    HoldError = 1,
+}
+
+/// Chooses where a crowd's bone priorities come from (`SlodPrioritySource`, as `uint32_t`).
+///
+/// Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+/// for an unknown value (nothing changed).
+///
+/// # Safety
+/// `world` NULL or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_crowd_set_priority_source(
+    world: *mut SlodWorld,
+    crowd: SlodCrowdId,
+    source: u32,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        let source = match source {
+            0 => animlod::PrioritySource::Factors,
+            1 => animlod::PrioritySource::HoldError,
+            s => return Err(FfiError::invalid("source", format!("unknown source {s}"))),
+        };
+        crowd_mut(world, crowd)?.set_priority_source(source);
+        Ok(())
+    })
+}
+
+/// Sets the scheduler's period mapping of a crowd: `period_scale` (finite, > 0; the update
+/// period in seconds of a bone of priority 1 at camera ratio 1/2) and `min_priority` (in
+/// [0, 1]; priorities below count as this).
+///
+/// Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+/// (nothing changed).
+///
+/// # Safety
+/// `world` NULL or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_crowd_set_scheduler(
+    world: *mut SlodWorld,
+    crowd: SlodCrowdId,
+    period_scale: f32,
+    min_priority: f32,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        crowd_mut(world, crowd)?
+            .set_scheduler(animlod::SchedulerParams {
+                period_scale,
+                min_priority,
+            })
+            .map_err(crowd_error)
+    })
+}
+
+/// Writes where a crowd's bone priorities come from to `*out_source`.
+///
+/// Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+///
+/// # Safety
+/// `world` NULL or a live world; `out_source` NULL or valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_crowd_priority_source(
+    world: *const SlodWorld,
+    crowd: SlodCrowdId,
+    out_source: *mut SlodPrioritySource,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world.
+        let world = unsafe { arg(world, "world") }?;
+        let c = world.crowds.get(RawId::from(crowd), "crowd")?;
+        let source = match c.priority_source() {
+            animlod::PrioritySource::Factors => SlodPrioritySource::Factors,
+            animlod::PrioritySource::HoldError => SlodPrioritySource::HoldError,
+        };
+        // SAFETY: caller contract: NULL or valid for a write.
+        unsafe { write_out(out_source, source, "out_source") }
+    })
+}

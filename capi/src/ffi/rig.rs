@@ -244,14 +244,163 @@ pub unsafe extern "C" fn slod_rig_clip_name(
         let r = rig_ref(world, rig)?;
         let id = check_clip(r, clip)?;
         let name = r.clip(id).map(|c| c.name()).unwrap_or_default();
-        // A name with an interior NUL would be cut short in C; those bytes are replaced.
-        let mut bytes: Vec<u8> = name
-            .bytes()
-            .map(|b| if b == 0 { b'?' } else { b })
-            .collect();
-        bytes.push(0);
         // SAFETY: caller contract: `buf` valid for `cap` writes, `out_len` for one.
-        unsafe { copy_out(&bytes, buf.cast::<u8>(), cap, out_len, "buf") }
+        unsafe { copy_out_name(name, buf, cap, out_len) }
+    })
+}
+
+/// Copies a name as a NUL-terminated string (an interior NUL, which would cut it short in C,
+/// is replaced by `?`).
+///
+/// # Safety
+/// `buf` valid for `cap` writes (NULL if `cap` is 0); `out_len` valid for a write.
+unsafe fn copy_out_name(
+    name: &str,
+    buf: *mut std::ffi::c_char,
+    cap: usize,
+    out_len: *mut usize,
+) -> Result<(), FfiError> {
+    let mut bytes: Vec<u8> = name
+        .bytes()
+        .map(|b| if b == 0 { b'?' } else { b })
+        .collect();
+    bytes.push(0);
+    // SAFETY: forwarded from the caller's contract.
+    unsafe { copy_out(&bytes, buf.cast::<u8>(), cap, out_len, "buf") }
+}
+
+/// The parent index of a root bone in `slod_rig_bone_parents`.
+pub const SLOD_NO_PARENT: u32 = u32::MAX;
+
+/// Copies the parent of every bone (`SLOD_NO_PARENT` for a root) to `out`, in bone order
+/// (parents come before their children): with the names, what a host needs to map the
+/// matrices of `slod_character_model_matrices` to its own skeleton.
+///
+/// Buffer: copy-out counted in bones (`SlodRigInfo::bones`; call with `cap` 0 to size it).
+/// Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`,
+/// `SLOD_RESULT_BUFFER_TOO_SMALL`.
+///
+/// # Safety
+/// `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
+/// valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_rig_bone_parents(
+    world: *const SlodWorld,
+    rig: SlodRigId,
+    out: *mut u32,
+    cap: usize,
+    out_len: *mut usize,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world.
+        let world = unsafe { arg(world, "world") }?;
+        let r = rig_ref(world, rig)?;
+        let sk = r.skeleton();
+        let parents: Vec<u32> = sk
+            .bones()
+            .map(|b| sk.parent(b).map_or(SLOD_NO_PARENT, |p| p.raw()))
+            .collect();
+        // SAFETY: caller contract: `out` valid for `cap` writes, `out_len` for one.
+        unsafe { copy_out(&parents, out, cap, out_len, "out") }
+    })
+}
+
+/// Copies the name of bone `bone` (the glTF node name) as a NUL-terminated string to `buf`.
+///
+/// Buffer: copy-out counted in bytes including the NUL (call with `cap` 0 to size it).
+/// Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+/// for a bone index out of range, `SLOD_RESULT_BUFFER_TOO_SMALL`.
+///
+/// # Safety
+/// `world` NULL or a live world; `buf` valid for `cap` writes (NULL if `cap` is 0); `out_len`
+/// valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_rig_bone_name(
+    world: *const SlodWorld,
+    rig: SlodRigId,
+    bone: u32,
+    buf: *mut std::ffi::c_char,
+    cap: usize,
+    out_len: *mut usize,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world.
+        let world = unsafe { arg(world, "world") }?;
+        let r = rig_ref(world, rig)?;
+        let bone = check_bone(r, bone)?;
+        // SAFETY: caller contract: `buf` valid for `cap` writes, `out_len` for one.
+        unsafe { copy_out_name(r.skeleton().name(bone), buf, cap, out_len) }
+    })
+}
+
+/// A bone index of a rig, checked.
+pub(crate) fn check_bone(rig: &Rig, bone: u32) -> Result<animlod::BoneId, FfiError> {
+    if (bone as usize) < rig.bone_count() {
+        Ok(animlod::BoneId::from_raw(bone))
+    } else {
+        Err(FfiError::invalid(
+            "bone",
+            format!(
+                "bone {bone} is out of range (the rig has {})",
+                rig.bone_count()
+            ),
+        ))
+    }
+}
+
+/// Copies the bone of every joint of skin `skin` to `out`: joint `j` of the skin (the index a
+/// mesh's `JOINTS_0` attribute and `slod_character_skinning_matrices` use) drives bone
+/// `out[j]`.
+///
+/// Buffer: copy-out counted in joints (`slod_rig_skin_joint_count`). Threads: reads the world
+/// only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`,
+/// `SLOD_RESULT_BUFFER_TOO_SMALL`.
+///
+/// # Safety
+/// `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
+/// valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_rig_skin_joints(
+    world: *const SlodWorld,
+    rig: SlodRigId,
+    skin: u32,
+    out: *mut u32,
+    cap: usize,
+    out_len: *mut usize,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world.
+        let world = unsafe { arg(world, "world") }?;
+        let r = rig_ref(world, rig)?;
+        let id = check_skin(r, skin)?;
+        let bones: Vec<u32> = r
+            .skin(id)
+            .map(|s| s.joints.iter().map(|j| j.raw()).collect())
+            .unwrap_or_default();
+        // SAFETY: caller contract: `out` valid for `cap` writes, `out_len` for one.
+        unsafe { copy_out(&bones, out, cap, out_len, "out") }
+    })
+}
+
+/// Writes the number of skinned meshes of a rig (every glTF node with a mesh and a skin) to
+/// `*out_count`: the meshes `slod_character_skinned_vertices` skins.
+///
+/// Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+///
+/// # Safety
+/// `world` NULL or a live world; `out_count` NULL or valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_rig_mesh_count(
+    world: *const SlodWorld,
+    rig: SlodRigId,
+    out_count: *mut usize,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world.
+        let world = unsafe { arg(world, "world") }?;
+        let r = rig_ref(world, rig)?;
+        // SAFETY: caller contract: NULL or valid for a write.
+        unsafe { write_out(out_count, r.meshes().len(), "out_count") }
     })
 }
 

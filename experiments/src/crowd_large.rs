@@ -1,0 +1,512 @@
+//! Large crowds and the whole per-character pipeline a host pays for (sampling, local→model
+//! concatenation, the skinning palette, CPU skinning), with and without LOD, measured with the
+//! rotation-aware error (joint origins and tips, pixels through a 1080-px-high view).
+//! Extends the thesis' crowd test (`animation-lod-bone-priority-thesis.txt`, chapter 13) to
+//! thousands of characters of a real rig, several clips and phases, 2–200 m in front of a
+//! camera that stands outside the crowd.
+//!
+//! Threads: the crowd is split into a fixed number of shards (independent [`Crowd`]s, each
+//! character always in the same shard) advanced in parallel on a rayon pool. Every LOD mode
+//! used here decides per character, so a character's pose does not depend on the shard count,
+//! and the shard count does not depend on the thread count: one thread and many give the same
+//! poses, which [`run_large`] checks.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use glam::{Mat4, Vec3};
+use rayon::prelude::*;
+use salience::View;
+
+use animlod::{
+    BuildError, CharacterId, ClipId, Crowd, CrowdError, ErrorSum, LodMode, Rig, SkinningJob,
+};
+
+use crate::crowd::rig_height;
+use crate::rng::Rng;
+
+/// Shards a large crowd is split into (a fixed count, so results do not depend on threads).
+pub const SHARDS: usize = 32;
+
+/// A large-crowd scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LargeSetup {
+    /// Characters.
+    pub characters: usize,
+    /// Nearest character distance from the camera (m).
+    pub near_m: f32,
+    /// Farthest character distance (m).
+    pub far_m: f32,
+    /// The LOD mode of the LOD crowd.
+    pub lod: LodMode,
+    /// Frames run before measuring.
+    pub warmup_frames: usize,
+    /// Frames measured.
+    pub frames: usize,
+    /// Frame step (s).
+    pub dt: f32,
+    /// Viewport height (px); 16:9, 60° vertical field of view.
+    pub viewport_height: u32,
+    /// Seed of positions, clips and phases.
+    pub seed: u64,
+}
+
+impl LargeSetup {
+    /// `characters` from 2 to 200 m, error bound 1 px, 1080 px high.
+    pub fn new(characters: usize) -> LargeSetup {
+        LargeSetup {
+            characters,
+            near_m: 2.0,
+            far_m: 200.0,
+            lod: LodMode::ErrorBound { max_error_px: 1.0 },
+            warmup_frames: 10,
+            frames: 20,
+            dt: 1.0 / 60.0,
+            viewport_height: 1080,
+            seed: 11,
+        }
+    }
+
+    /// The camera: at the origin, 1.6 m up, looking along −z; every character stands in front.
+    pub fn view(&self) -> Result<View, CrowdError> {
+        let h = self.viewport_height.max(1);
+        let w = (h as f32 * 16.0 / 9.0).round() as u32;
+        Ok(View::new(
+            Vec3::new(0.0, 1.6, 0.0),
+            Vec3::NEG_Z,
+            Vec3::Y,
+            60f32.to_radians(),
+            w,
+            h,
+        )?)
+    }
+}
+
+/// A real rig scaled to 1.8 m.
+pub fn metric_rig(rig: &Rig) -> Result<Rig, BuildError> {
+    animlod::build::scaled(rig, 1.8 / rig_height(rig)?)
+}
+
+/// One large-crowd measurement: whole-pipeline frame cost (sampling, concatenation, palette)
+/// with and without LOD, and the on-screen error.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LargeRow {
+    /// Characters.
+    pub characters: usize,
+    /// Nearest and farthest character distance (m).
+    pub near_m: f32,
+    /// Farthest character distance (m).
+    pub far_m: f32,
+    /// Threads of the parallel run.
+    pub threads: usize,
+    /// Mean frame time at full detail on one thread (ms): sample + concatenate + palette of
+    /// every character.
+    pub full_ms: f64,
+    /// Mean frame time with LOD on one thread (ms): the palette only for characters whose pose
+    /// changed (a held character keeps last frame's).
+    pub lod_ms: f64,
+    /// Mean frame time with LOD on `threads` threads (ms).
+    pub lod_parallel_ms: f64,
+    /// Mean on-screen error (px) over visible joints (origins and tips) and frames.
+    pub mean_error_px: f32,
+    /// Largest on-screen error (px).
+    pub max_error_px: f32,
+    /// Root mean square on-screen error (px).
+    pub rms_error_px: f32,
+    /// Fraction of the full-detail bone interpolations the LOD crowd spent.
+    pub interpolated_fraction: f64,
+    /// Fraction of characters whose pose changed per frame with LOD (palette and skinning
+    /// recomputed).
+    pub changed_fraction: f64,
+    /// Whether the parallel run gave bit-identical poses to the one-thread run.
+    pub deterministic: bool,
+}
+
+impl LargeRow {
+    /// `lod_ms / full_ms`.
+    pub fn cost_ratio(&self) -> f64 {
+        if self.full_ms > 0.0 {
+            self.lod_ms / self.full_ms
+        } else {
+            0.0
+        }
+    }
+
+    /// One-thread LOD time over parallel LOD time.
+    pub fn parallel_speedup(&self) -> f64 {
+        if self.lod_parallel_ms > 0.0 {
+            self.lod_ms / self.lod_parallel_ms
+        } else {
+            0.0
+        }
+    }
+}
+
+/// A crowd split into shards, plus each character's palette per skin.
+struct Sharded {
+    shards: Vec<Crowd>,
+    ids: Vec<Vec<CharacterId>>,
+    palettes: Vec<Vec<Vec<Mat4>>>,
+}
+
+impl Sharded {
+    /// Every character of `setup` (positions, clips, phases from its seed) in `SHARDS` crowds.
+    fn new(rig: &Arc<Rig>, setup: &LargeSetup, lod: LodMode) -> Result<Sharded, CrowdError> {
+        let view = setup.view()?;
+        let clips: Vec<ClipId> = (0..rig.clips().len())
+            .map(ClipId::new)
+            .filter(|&c| rig.clip(c).is_some_and(|c| c.duration() > 0.0))
+            .collect();
+        let clips = if clips.is_empty() {
+            vec![ClipId::new(0)]
+        } else {
+            clips
+        };
+        let mut shards: Vec<Crowd> = (0..SHARDS).map(|_| Crowd::new(rig.clone())).collect();
+        let mut ids = vec![Vec::new(); SHARDS];
+        let mut r = Rng::new(setup.seed);
+        // Half the horizontal field of view's tangent (60° vertical).
+        let tan_x = view.width_px() as f32 / view.height_px() as f32 * 30f32.to_radians().tan();
+        for i in 0..setup.characters {
+            let d = r.range(setup.near_m, setup.far_m);
+            let x = r.range(-0.9, 0.9) * d * tan_x;
+            let clip = clips[i % clips.len()];
+            let phase = r.next_f32();
+            let s = i % SHARDS;
+            let id = shards[s].add_character(Vec3::new(x, 0.0, -d), clip)?;
+            let duration = rig.clip(clip).map_or(0.0, |c| c.duration());
+            shards[s].set_time(id, phase * duration)?;
+            ids[s].push(id);
+        }
+        for c in &mut shards {
+            c.set_lod(lod)?;
+        }
+        let palettes = ids
+            .iter()
+            .map(|v| {
+                v.iter()
+                    .map(|_| {
+                        rig.skins()
+                            .iter()
+                            .flat_map(|s| s.joints.iter())
+                            .map(|_| Mat4::IDENTITY)
+                            .collect()
+                    })
+                    .collect()
+            })
+            .collect();
+        Ok(Sharded {
+            shards,
+            ids,
+            palettes,
+        })
+    }
+
+    /// Advances every shard and rebuilds the palettes of characters whose pose changed (all of
+    /// them when `reuse` is false); returns interpolations and changed characters.
+    fn frame(&mut self, dt: f32, view: &View, reuse: bool) -> Result<(u64, u64), CrowdError> {
+        let results: Vec<Result<(u64, u64), CrowdError>> = self
+            .shards
+            .par_iter_mut()
+            .zip(self.ids.par_iter())
+            .zip(self.palettes.par_iter_mut())
+            .map(|((crowd, ids), palettes)| {
+                let st = crowd.advance(dt, view)?;
+                let mut changed = 0;
+                for (&id, palette) in ids.iter().zip(palettes.iter_mut()) {
+                    if reuse && !crowd.pose_changed(id)? {
+                        continue;
+                    }
+                    changed += 1;
+                    let mut at = 0;
+                    for s in 0..crowd.rig().skins().len() {
+                        at += crowd.skinning_matrices(
+                            id,
+                            animlod::SkinId::new(s),
+                            &mut palette[at..],
+                        )?;
+                    }
+                }
+                Ok((st.bones_interpolated, changed))
+            })
+            .collect();
+        results.into_iter().try_fold((0, 0), |(a, b), r| {
+            let (x, y) = r?;
+            Ok((a + x, b + y))
+        })
+    }
+
+    fn poses(&self) -> Vec<Mat4> {
+        let mut out = Vec::new();
+        for (crowd, ids) in self.shards.iter().zip(&self.ids) {
+            for &id in ids {
+                out.extend_from_slice(crowd.model_matrices(id).unwrap_or(&[]));
+            }
+        }
+        out
+    }
+}
+
+fn pool(threads: usize) -> Result<rayon::ThreadPool, CrowdError> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|_| CrowdError::InvalidArgument {
+            what: "threads",
+            reason: "could not start a thread pool",
+        })
+}
+
+/// Runs a large crowd: full detail and LOD in lockstep on one thread (times and error), then
+/// the LOD crowd again on `threads` threads (time, and whether its poses equal the one-thread
+/// run's).
+pub fn run_large(
+    rig: &Arc<Rig>,
+    setup: &LargeSetup,
+    threads: usize,
+) -> Result<LargeRow, CrowdError> {
+    let view = setup.view()?;
+    let one = pool(1)?;
+    let (full_ms, lod_ms, sum, spent, changed, poses) = one.install(|| {
+        let mut full = Sharded::new(rig, setup, LodMode::Off)?;
+        let mut lod = Sharded::new(rig, setup, setup.lod)?;
+        for _ in 0..setup.warmup_frames {
+            full.frame(setup.dt, &view, false)?;
+            lod.frame(setup.dt, &view, true)?;
+        }
+        let (mut tf, mut tl) = (0.0f64, 0.0f64);
+        let mut sum = ErrorSum::default();
+        let (mut done, mut all, mut changed) = (0u64, 0u64, 0u64);
+        for _ in 0..setup.frames {
+            let t0 = Instant::now();
+            let (f, _) = full.frame(setup.dt, &view, false)?;
+            let t1 = Instant::now();
+            let (l, c) = lod.frame(setup.dt, &view, true)?;
+            let t2 = Instant::now();
+            tf += (t1 - t0).as_secs_f64();
+            tl += (t2 - t1).as_secs_f64();
+            (done, all, changed) = (done + l, all + f, changed + c);
+            let sk = rig.skeleton();
+            for s in 0..SHARDS {
+                for (&a, &b) in full.ids[s].iter().zip(&lod.ids[s]) {
+                    sum.add_pose(
+                        sk,
+                        lod.shards[s].model_matrices(b)?,
+                        full.shards[s].model_matrices(a)?,
+                        full.shards[s].position(a)?,
+                        &view,
+                    );
+                }
+            }
+        }
+        let frames = setup.frames.max(1) as f64;
+        Ok::<_, CrowdError>((
+            tf * 1e3 / frames,
+            tl * 1e3 / frames,
+            sum.finish(),
+            done as f64 / all.max(1) as f64,
+            changed as f64 / (frames * setup.characters.max(1) as f64),
+            lod.poses(),
+        ))
+    })?;
+    let many = pool(threads.max(1))?;
+    let (lod_parallel_ms, parallel_poses) = many.install(|| {
+        let mut lod = Sharded::new(rig, setup, setup.lod)?;
+        for _ in 0..setup.warmup_frames {
+            lod.frame(setup.dt, &view, true)?;
+        }
+        let t0 = Instant::now();
+        for _ in 0..setup.frames {
+            lod.frame(setup.dt, &view, true)?;
+        }
+        let ms = t0.elapsed().as_secs_f64() * 1e3 / setup.frames.max(1) as f64;
+        Ok::<_, CrowdError>((ms, lod.poses()))
+    })?;
+    Ok(LargeRow {
+        characters: setup.characters,
+        near_m: setup.near_m,
+        far_m: setup.far_m,
+        threads: threads.max(1),
+        full_ms,
+        lod_ms,
+        lod_parallel_ms,
+        mean_error_px: sum.mean_px,
+        max_error_px: sum.max_px,
+        rms_error_px: sum.rms_px,
+        interpolated_fraction: spent,
+        changed_fraction: changed,
+        deterministic: poses == parallel_poses,
+    })
+}
+
+/// Per-frame cost of each stage of the pipeline (ms, summed over the crowd).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Stages {
+    /// Sampling (key search, interpolation, local matrices).
+    pub sample_ms: f64,
+    /// Local → model concatenation.
+    pub concat_ms: f64,
+    /// Skinning palette (model × inverse bind).
+    pub palette_ms: f64,
+    /// CPU linear-blend skinning of the rig's meshes (positions and normals).
+    pub skin_ms: f64,
+}
+
+/// The pipeline measured on one thread, without and with LOD.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PipelineRow {
+    /// Characters.
+    pub characters: usize,
+    /// Vertices skinned per character.
+    pub vertices: usize,
+    /// Full detail, every stage for every character every frame.
+    pub full: Stages,
+    /// With LOD: held characters reuse their palette and skinned vertices.
+    pub lod: Stages,
+    /// Fraction of character-frames skinned with LOD (the rest reused their output).
+    pub lod_skinned_fraction: f64,
+    /// Mean on-screen error (px) with LOD (bone tips).
+    pub mean_error_px: f32,
+    /// Largest on-screen error (px) with LOD.
+    pub max_error_px: f32,
+}
+
+/// Measures every stage of the pipeline for `setup.characters` characters on one thread, with
+/// LOD off and with `setup.lod` (held characters reuse their palette and skinned output).
+pub fn run_pipeline(rig: &Arc<Rig>, setup: &LargeSetup) -> Result<PipelineRow, CrowdError> {
+    let view = setup.view()?;
+    let vertices: usize = rig.meshes().iter().map(|m| m.vertex_count()).sum();
+    let mut sum = ErrorSum::default();
+    let mut stages = [Stages::default(); 2];
+    let mut reference: Option<Vec<Vec<Mat4>>> = None;
+    let mut skinned = 0u64;
+    for (k, lod) in [LodMode::Off, setup.lod].into_iter().enumerate() {
+        let mut s = Sharded::new(rig, setup, lod)?;
+        s.shards.iter_mut().for_each(|c| c.set_stage_timing(true));
+        let n = setup.characters;
+        let mut out_p = vec![vec![Vec3::ZERO; vertices]; n];
+        let mut out_n = vec![vec![Vec3::ZERO; vertices]; n];
+        let mut palette = Vec::new();
+        let mut poses_per_frame = Vec::new();
+        for frame in 0..setup.warmup_frames + setup.frames {
+            let measured = frame >= setup.warmup_frames;
+            let mut st = animlod::FrameStats::default();
+            let (mut palette_s, mut skin_s) = (0.0f64, 0.0f64);
+            let mut c_index = 0;
+            for (crowd, ids) in s.shards.iter_mut().zip(&s.ids) {
+                st += crowd.advance(setup.dt, &view)?;
+                for &id in ids {
+                    let ci = c_index;
+                    c_index += 1;
+                    if k == 1 && !crowd.pose_changed(id)? {
+                        continue;
+                    }
+                    skinned += (k == 1 && measured) as u64;
+                    let mut at = 0;
+                    for mesh in rig.meshes() {
+                        let joints = rig.skin(mesh.skin).map_or(0, |s| s.joints.len());
+                        palette.resize(joints, Mat4::IDENTITY);
+                        let t0 = Instant::now();
+                        crowd.skinning_matrices(id, mesh.skin, &mut palette)?;
+                        let t1 = Instant::now();
+                        let v = mesh.vertex_count();
+                        SkinningJob {
+                            mesh,
+                            palette: &palette,
+                            positions: &mut out_p[ci][at..at + v],
+                            normals: &mut out_n[ci][at..at + v],
+                        }
+                        .run()?;
+                        palette_s += (t1 - t0).as_secs_f64();
+                        skin_s += t1.elapsed().as_secs_f64();
+                        at += v;
+                    }
+                }
+            }
+            if measured {
+                let x = &mut stages[k];
+                x.sample_ms += st.sample_ns as f64 * 1e-6;
+                x.concat_ms += st.concat_ns as f64 * 1e-6;
+                x.palette_ms += palette_s * 1e3;
+                x.skin_ms += skin_s * 1e3;
+                poses_per_frame.push(s.poses());
+            }
+        }
+        let frames = setup.frames.max(1) as f64;
+        let x = &mut stages[k];
+        (x.sample_ms, x.concat_ms, x.palette_ms, x.skin_ms) = (
+            x.sample_ms / frames,
+            x.concat_ms / frames,
+            x.palette_ms / frames,
+            x.skin_ms / frames,
+        );
+        match &reference {
+            None => reference = Some(poses_per_frame),
+            Some(full) => {
+                let sk = rig.skeleton();
+                let bones = sk.len();
+                let positions: Vec<Vec3> = s
+                    .shards
+                    .iter()
+                    .zip(&s.ids)
+                    .flat_map(|(c, ids)| ids.iter().map(|&id| c.position(id).unwrap_or(Vec3::ZERO)))
+                    .collect();
+                for (a, b) in poses_per_frame.iter().zip(full) {
+                    for (i, p) in positions.iter().enumerate() {
+                        let r = i * bones..(i + 1) * bones;
+                        sum.add_pose(sk, &a[r.clone()], &b[r], *p, &view);
+                    }
+                }
+            }
+        }
+    }
+    let e = sum.finish();
+    Ok(PipelineRow {
+        characters: setup.characters,
+        vertices,
+        full: stages[0],
+        lod: stages[1],
+        lod_skinned_fraction: skinned as f64
+            / (setup.frames.max(1) * setup.characters.max(1)) as f64,
+        mean_error_px: e.mean_px,
+        max_error_px: e.max_px,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    fn gdbot() -> Arc<Rig> {
+        let path =
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets/gltf/GDQuest_GDBot.glb");
+        Arc::new(metric_rig(&animlod::build::import_path(&path).unwrap()).unwrap())
+    }
+
+    #[test]
+    fn large_crowd_is_deterministic_across_threads_and_within_the_bound() {
+        let rig = gdbot();
+        let mut setup = LargeSetup::new(300);
+        (setup.warmup_frames, setup.frames) = (3, 8);
+        let row = run_large(&rig, &setup, 2).unwrap();
+        println!("{row:?} cost {:.2}", row.cost_ratio());
+        assert!(row.deterministic);
+        assert!(row.max_error_px <= 1.1, "{row:?}");
+        assert!(row.interpolated_fraction < 1.0);
+    }
+
+    #[test]
+    fn pipeline_stages_are_measured_and_held_characters_skip_skinning() {
+        let rig = gdbot();
+        let mut setup = LargeSetup::new(24);
+        (setup.warmup_frames, setup.frames) = (2, 4);
+        let row = run_pipeline(&rig, &setup).unwrap();
+        println!("{row:?}");
+        assert!(row.vertices > 0);
+        let (f, l) = (row.full, row.lod);
+        assert!(f.sample_ms > 0.0 && f.concat_ms > 0.0 && f.palette_ms > 0.0 && f.skin_ms > 0.0);
+        assert!(l.skin_ms > 0.0 && row.lod_skinned_fraction < 1.0, "{row:?}");
+        assert!(row.max_error_px <= 1.1, "{row:?}");
+    }
+}
