@@ -425,7 +425,8 @@ pub(crate) fn perception_error_cost(
             .titled(
                 &format!(
                     "On-screen error against cost per frame ({} px high view, {} deg): uniform cuts \
-                     (black line) and each strategy at {:.0}% of the nodes",
+                     (black line), the reference (triangle, 0 px) and each strategy at {:.0}% of \
+                     the nodes",
                     section.viewport_height_px,
                     section.fov_y_deg,
                     section.compression * 100.0
@@ -479,14 +480,19 @@ pub(crate) fn perception_error_cost(
                 .axis_desc_style((font::FAMILY, 14))
                 .draw()
                 .map_err(err)?;
+            // The reduced uniform cuts as a line; the reference (0 px) as its own marker at the
+            // bottom of the log scale.
             let curve: Vec<(f64, f64)> = scene
                 .uniform_curve
                 .iter()
-                .map(|p| (p.ms_per_step, p.screen_p99_px.max(FLOOR)))
+                .filter(|p| p.screen_p99_px > 0.0)
+                .map(|p| (p.ms_per_step, p.screen_p99_px))
                 .collect();
             chart
                 .draw_series(LineSeries::new(curve.clone(), BLACK.stroke_width(2)))
-                .map_err(err)?;
+                .map_err(err)?
+                .label("uniform cuts")
+                .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], BLACK.stroke_width(2)));
             chart
                 .draw_series(
                     curve
@@ -494,6 +500,20 @@ pub(crate) fn perception_error_cost(
                         .map(|&p| Cross::new(p, 5, BLACK.stroke_width(2))),
                 )
                 .map_err(err)?;
+            let full: Vec<(f64, f64)> = scene
+                .uniform_curve
+                .iter()
+                .filter(|p| p.screen_p99_px <= 0.0)
+                .map(|p| (p.ms_per_step, FLOOR * 1.3))
+                .collect();
+            chart
+                .draw_series(
+                    full.iter()
+                        .map(|&p| TriangleMarker::new(p, 8, BLACK.filled())),
+                )
+                .map_err(err)?
+                .label("reference (0 px)")
+                .legend(|(x, y)| TriangleMarker::new((x + 8, y), 6, BLACK.filled()));
             chart
                 .draw_series(DashedLineSeries::new(
                     [(0.0, 1.0), (max_ms * 1.08, 1.0)],
@@ -517,7 +537,7 @@ pub(crate) fn perception_error_cost(
             }
             chart
                 .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
+                .position(SeriesLabelPosition::LowerRight)
                 .label_font((font::FAMILY, 12))
                 .background_style(WHITE.mix(0.85))
                 .border_style(BLACK)

@@ -37,7 +37,7 @@ pub const FOV_Y_DEG: f32 = 50.0;
 /// profile) or a tiny one for `--quick`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SceneScale {
-    /// The sizes the issue names (65² and 129² nets, a 129² large cloth), 240 steps (4 s).
+    /// The sizes the issue names (65² and 129² nets, a 129² large cloth), 200 steps (3.3 s).
     Full,
     /// About a quarter of the vertices per side, 150 steps: for tests.
     Small,
@@ -60,7 +60,7 @@ impl SceneScale {
     /// Steps per run.
     pub fn steps(self) -> u32 {
         match self {
-            SceneScale::Full => 240,
+            SceneScale::Full => 200,
             SceneScale::Small => 150,
             SceneScale::Tiny => 40,
         }
