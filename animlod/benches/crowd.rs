@@ -14,7 +14,7 @@ use slod_experiments::crowd::{self as experiment, CrowdExperiment, Layout, THESI
 
 fn thesis_rig() -> Arc<Rig> {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets/gltf/GDQuest_GDBot.glb");
-    let base = Rig::from_gltf_path(&path).expect("asset");
+    let base = animlod::build::import_path(&path).expect("asset");
     Arc::new(experiment::thesis_rig(&base).expect("153-bone rig"))
 }
 

@@ -18,7 +18,7 @@ fn rig(name: &str, options: &ImportOptions) -> Rig {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../assets/gltf")
         .join(name);
-    Rig::from_gltf_path_with(&path, options).expect("asset")
+    animlod::build::import_path_with(&path, options).expect("asset")
 }
 
 fn crowd(rig: Arc<Rig>, clip: &str, lod: LodMode) -> Crowd {

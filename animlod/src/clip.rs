@@ -18,22 +18,11 @@ use glam::{Affine3A, Quat, Vec3, Vec3A, Vec4};
 
 use crate::error::BuildError;
 use crate::ids::BoneId;
-use crate::priority::SubPriorities;
 use crate::skeleton::Skeleton;
 use crate::transform::{Transform, compose};
 
+pub use crate::sampling::Interpolation;
 pub(crate) use crate::sampling::{Block, ChannelRef, Cursor, TrsScratch, locate};
-
-/// How values between two keys are computed (the glTF sampler interpolations).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Interpolation {
-    /// Hold the value of the previous key.
-    Step,
-    /// Linear for translation and scale; shortest-path spherical for rotation.
-    Linear,
-    /// Cubic Hermite spline with per-key in and out tangents (glTF `CUBICSPLINE`).
-    CubicSpline,
-}
 
 /// The property of a bone's local transform that a channel animates.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -154,13 +143,9 @@ pub struct ChannelStats {
 }
 
 impl ChannelStats {
-    /// Keyed channels of a property.
-    pub fn keyed(&self, p: Property) -> u32 {
-        self.keyed[p.slot()]
-    }
-
     /// Constant channels of a property.
-    pub fn constant(&self, p: Property) -> u32 {
+    #[cfg(test)]
+    pub(crate) fn constant(&self, p: Property) -> u32 {
         self.constant[p.slot()]
     }
 
@@ -171,7 +156,8 @@ impl ChannelStats {
 }
 
 /// An animation clip bound to a skeleton: constant channels folded into a base pose, animated
-/// channels in blocks, and the static per-keyframe sub-priorities of the animated bones.
+/// channels in blocks. Plain runtime data: its priority table is computed by the build step
+/// ([`crate::build`]) and kept by the [`crate::Rig`].
 #[derive(Clone, Debug)]
 pub struct Clip {
     name: String,
@@ -189,8 +175,10 @@ pub struct Clip {
     /// Bones that are animated or have an animated ancestor: the ones whose model matrix changes
     /// at full detail (ascending, so parents first).
     pub(crate) moving: Vec<u32>,
+    /// Per animated-bone slot: the slot of its nearest animated ancestor (`u32::MAX`: none).
+    /// The error bound sums the drift of held bones down each chain.
+    pub(crate) ancestor_slot: Vec<u32>,
     stats: ChannelStats,
-    pub(crate) priorities: SubPriorities,
     source: Vec<ChannelDesc>,
     options: ClipOptions,
 }
@@ -297,8 +285,7 @@ fn transpose<T: Copy>(block: &mut Block<T>) {
 impl Clip {
     /// Builds a clip for `skeleton` from its channels: validates them (known bones, one channel per
     /// property and bone, finite non-decreasing times, matching value counts, finite values),
-    /// folds constant channels into the base pose, aligns rotation hemispheres, and computes the
-    /// static sub-priorities. The duration is the last key time of any channel.
+    /// folds constant channels into the base pose and aligns rotation hemispheres. The duration is the last key time of any channel.
     pub fn new(
         name: impl Into<String>,
         skeleton: &Skeleton,
@@ -439,6 +426,19 @@ impl Clip {
         for (i, &b) in animated.iter().enumerate() {
             slot_of[b as usize] = i as u32;
         }
+        let ancestor_slot = animated
+            .iter()
+            .map(|&b| {
+                let mut p = skeleton.parent(BoneId::from_raw(b));
+                while let Some(q) = p {
+                    if slot_of[q.index()] != u32::MAX {
+                        return slot_of[q.index()];
+                    }
+                    p = skeleton.parent(q);
+                }
+                u32::MAX
+            })
+            .collect();
         let mut slot_channels = vec![[ChannelRef::NONE; 3]; animated.len()];
         let mut refs = |p: usize, blocks: &mut dyn Iterator<Item = &Vec<u32>>| {
             for (bi, bones) in blocks.enumerate() {
@@ -453,7 +453,7 @@ impl Clip {
         refs(0, &mut translations.iter().map(|b| &b.bones));
         refs(1, &mut rotations.iter().map(|b| &b.bones));
         refs(2, &mut scales.iter().map(|b| &b.bones));
-        let mut clip = Clip {
+        Ok(Clip {
             name: name.into(),
             duration,
             groups,
@@ -465,13 +465,11 @@ impl Clip {
             animated,
             slot_channels,
             moving,
+            ancestor_slot,
             stats,
-            priorities: SubPriorities::default(),
             source,
             options: *options,
-        };
-        clip.priorities = SubPriorities::compute(&clip, skeleton);
-        Ok(clip)
+        })
     }
 
     /// Name (the glTF animation name, or `animation<i>`).
@@ -512,18 +510,13 @@ impl Clip {
 
     /// The local pose used for everything the clip does not animate: the rest pose with the
     /// clip's constant channels applied.
-    pub fn base_pose(&self) -> &[Transform] {
+    pub(crate) fn base_pose(&self) -> &[Transform] {
         &self.base_pose
-    }
-
-    /// Static sub-priorities of the clip's keyframes.
-    pub fn sub_priorities(&self) -> &SubPriorities {
-        &self.priorities
     }
 
     /// Wraps a playback time into `[0, duration)` (or 0 for a zero-length clip).
     #[inline]
-    pub fn wrap_time(&self, t: f32) -> f32 {
+    pub(crate) fn wrap_time(&self, t: f32) -> f32 {
         if self.duration > 0.0 {
             // The common case (a frame step past the end) without a call to fmod.
             if (0.0..self.duration).contains(&t) {
@@ -618,7 +611,7 @@ impl Clip {
         s: &mut TrsScratch,
         out: &mut [Affine3A],
     ) {
-        s.prepare(self);
+        s.prepare(&self.base_pose);
         self.locate_all(t, cursors);
         self.sample(cursors, s);
         out.copy_from_slice(&self.base_locals);
@@ -626,10 +619,10 @@ impl Clip {
     }
 
     /// The local pose (translation, rotation, scale of every bone) at time `t` (not wrapped).
-    pub fn sample_pose(&self, t: f32) -> Vec<Transform> {
+    pub(crate) fn sample_pose(&self, t: f32) -> Vec<Transform> {
         let mut s = TrsScratch::default();
         let mut cursors = Vec::new();
-        s.prepare(self);
+        s.prepare(&self.base_pose);
         self.locate_all(t, &mut cursors);
         self.sample(&cursors, &mut s);
         (0..self.base_pose.len())
@@ -956,7 +949,7 @@ mod tests {
             for subset in 0..(1u32 << slots) {
                 let list: Vec<u32> = (0..slots).filter(|i| subset & (1 << i) != 0).collect();
                 let mut sparse = clip.base_locals.clone();
-                s.prepare(&clip);
+                s.prepare(&clip.base_pose);
                 clip.sample_slots(&cursors, &list, &mut s, &mut sparse);
                 for &i in &list {
                     let b = clip.animated[i as usize] as usize;

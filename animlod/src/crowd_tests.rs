@@ -6,12 +6,12 @@ use std::sync::Arc;
 use glam::{Mat4, Vec3};
 
 use super::*;
-use crate::import::tests::asset;
+use crate::build::tests::asset;
 use crate::{ClipId, LodMode, PriorityWeights, Rig, SchedulerParams};
 use salience::View;
 
 fn gdbot() -> Arc<Rig> {
-    Arc::new(Rig::from_gltf_path(&asset("GDQuest_GDBot.glb")).unwrap())
+    Arc::new(crate::build::import_path(&asset("GDQuest_GDBot.glb")).unwrap())
 }
 
 fn walk(rig: &Rig) -> ClipId {

@@ -3,11 +3,13 @@
 //! interpolation where the camera can see it.
 //!
 //! The pieces, in the order data flows:
-//! - [`Rig`] — a [`Skeleton`], its [`Clip`]s and [`Skin`]s, imported from glTF
-//!   ([`Rig::from_gltf_path`]) or built in code. Constant channels are folded away at load time.
-//! - [`SubPriorities`] — static per-keyframe priorities of every animated bone (thesis ch. 10–12,
-//!   with its two defects fixed), combined with [`PriorityWeights`];
-//!   [`analysis::derive_weights`] fits the weights to measured pose error.
+//! - The build step, [`build`] (offline, once per rig): glTF import ([`build::import_path`]) or
+//!   parts built in code ([`build::rig`]); constant channels are folded away; each clip's
+//!   [`SubPriorities`] table — static per-keyframe priorities of every animated bone (thesis
+//!   ch. 10–12, with its two defects fixed) and measured hold error rates — is computed; and
+//!   [`build::analysis::derive_weights`] fits the [`PriorityWeights`] to measured pose error.
+//! - [`Rig`] — the plain runtime data the build step produces: a [`Skeleton`], its [`Clip`]s
+//!   and [`Skin`]s, and one priority table per clip.
 //! - [`Crowd`] — characters sharing an `Arc<Rig>`; [`LodMode`] and the frame's
 //!   [`salience::View`] give each its camera ratio Ω; the [`scheduler`] turns priority × Ω into an update period per bone (the
 //!   thesis' reading), [`LodMode::Budget`] spends a fixed number of interpolations per frame over
@@ -19,30 +21,31 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-pub mod analysis;
+pub mod build;
 mod clip;
 mod crowd;
 mod error;
 mod ids;
-mod import;
 mod lod;
+mod mesh;
 mod pose_error;
 mod priority;
 mod rig;
 mod sampling;
-pub mod scheduler;
+mod scheduler;
 mod skeleton;
 mod transform;
 
+pub use build::{ImportOptions, ImportReport};
 pub use clip::{ChannelDesc, ChannelStats, Clip, ClipOptions, Interpolation, Keys, Property};
 pub use crowd::{Crowd, FrameStats, PrioritySource};
 pub use error::{BuildError, CrowdError, ImportError};
 pub use ids::{BoneId, CharacterId, ClipId, SkinId};
-pub use import::{ImportOptions, ImportReport};
-pub use lod::{LodMode, omega_from_distance, omega_from_pixels};
+pub use lod::LodMode;
+pub use mesh::{SkinnedMesh, SkinningJob};
 pub use pose_error::{ErrorSum, PoseError};
 pub use priority::{Factor, PriorityWeights, SubPriorities};
 pub use rig::{Rig, Skin};
-pub use scheduler::{SchedulerParams, update_period};
+pub use scheduler::SchedulerParams;
 pub use skeleton::{BoneDesc, MAX_BONES, Skeleton};
-pub use transform::{Transform, align_hemisphere, interpolate_rotation, rotation_angle};
+pub use transform::Transform;

@@ -105,13 +105,13 @@ impl LodMode {
 /// `(d − min) / (max − min)`, which grows with distance, against its own text that Ω must shrink
 /// as the character moves away.)
 #[inline]
-pub fn omega_from_distance(distance: f32, min: f32, max: f32) -> f32 {
+pub(crate) fn omega_from_distance(distance: f32, min: f32, max: f32) -> f32 {
     ((max - distance) / (max - min)).clamp(0.0, 1.0)
 }
 
 /// The camera ratio from a projected radius in pixels (see [`LodMode::PixelSize`]).
 #[inline]
-pub fn omega_from_pixels(radius_px: f32, full_detail_px: f32, freeze_below_px: f32) -> f32 {
+pub(crate) fn omega_from_pixels(radius_px: f32, full_detail_px: f32, freeze_below_px: f32) -> f32 {
     if radius_px < freeze_below_px || radius_px <= 0.0 {
         0.0
     } else {

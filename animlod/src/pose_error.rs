@@ -1,11 +1,17 @@
-//! Pose error: how far the LOD pose's joints are from a full-rate evaluation at the same time,
-//! in model units and in pixels on screen.
+//! Pose error: how far the LOD pose is from a full-rate evaluation at the same time, in model
+//! units and in pixels on screen, measured where a viewer sees it — at every joint's origin and
+//! at its tip ([`crate::Skeleton::tip`]), points that turn with the bone (as ACL measures
+//! compression error at virtual vertices; Frechette, "Animation Compression Library", 2017–).
+//! A joint's error is the larger of the two.
 
 use glam::{Mat4, Vec3};
 
 use salience::View;
 
-/// Joint position error statistics.
+use crate::skeleton::Skeleton;
+
+/// Pose error statistics over joints (each joint's error: the larger of its origin's and its
+/// tip's displacement).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PoseError {
     /// Joints compared.
@@ -20,6 +26,8 @@ pub struct PoseError {
     pub mean_px: f32,
     /// Largest on-screen error in pixels.
     pub max_px: f32,
+    /// Root mean square on-screen error in pixels.
+    pub rms_px: f32,
 }
 
 /// Running sums for [`PoseError`].
@@ -30,6 +38,7 @@ pub struct ErrorSum {
     max: f32,
     visible: u64,
     sum_px: f64,
+    sum_px2: f64,
     max_px: f32,
 }
 
@@ -37,36 +46,47 @@ impl ErrorSum {
     /// Adds one joint's error `e` (units) seen at `pixels_per_unit` (`None`: not visible).
     #[inline]
     pub fn add(&mut self, e: f32, pixels_per_unit: Option<f32>) {
-        self.joints += 1;
-        self.sum += e as f64;
-        self.max = self.max.max(e);
-        if let Some(ppu) = pixels_per_unit {
-            let px = e * ppu;
-            self.visible += 1;
-            self.sum_px += px as f64;
-            self.max_px = self.max_px.max(px);
-        }
+        self.add_px(e, pixels_per_unit.map(|ppu| e * ppu));
     }
 
-    /// Adds every joint of a pose: `pose` and `reference` are model matrices, the character
-    /// stands at `position`.
+    /// Adds every joint of a pose, at its origin and its tip: `pose` and `reference` are model
+    /// matrices of `skeleton`'s bones, the character stands at `position` (world = model +
+    /// position).
     pub fn add_pose(
         &mut self,
-        joints: &[bool],
+        skeleton: &Skeleton,
         pose: &[Mat4],
         reference: &[Mat4],
         position: Vec3,
         view: &View,
     ) {
-        for ((&j, a), b) in joints.iter().zip(pose).zip(reference) {
+        let tips = skeleton.tips();
+        for (((&j, a), b), &tip) in skeleton
+            .joint_flags()
+            .iter()
+            .zip(pose)
+            .zip(reference)
+            .zip(tips)
+        {
             if !j {
                 continue;
             }
-            let pa = a.w_axis.truncate();
-            let pb = b.w_axis.truncate();
-            let at = position + pb;
-            let ppu = view.is_in_view(at, 0.0).then(|| view.pixels_per_unit(at));
-            self.add(pa.distance(pb), ppu);
+            let (e, px) = point_pair_error(a, b, tip, position, view);
+            self.add_px(e, px);
+        }
+    }
+
+    /// Adds one joint's error `e` (units) already converted to pixels (`None`: not visible).
+    #[inline]
+    pub(crate) fn add_px(&mut self, e: f32, px: Option<f32>) {
+        self.joints += 1;
+        self.sum += e as f64;
+        self.max = self.max.max(e);
+        if let Some(px) = px {
+            self.visible += 1;
+            self.sum_px += px as f64;
+            self.sum_px2 += (px as f64) * (px as f64);
+            self.max_px = self.max_px.max(px);
         }
     }
 
@@ -77,6 +97,7 @@ impl ErrorSum {
         self.max = self.max.max(o.max);
         self.visible += o.visible;
         self.sum_px += o.sum_px;
+        self.sum_px2 += o.sum_px2;
         self.max_px = self.max_px.max(o.max_px);
     }
 
@@ -97,6 +118,37 @@ impl ErrorSum {
                 0.0
             },
             max_px: self.max_px,
+            rms_px: if self.visible > 0 {
+                (self.sum_px2 / self.visible as f64).sqrt() as f32
+            } else {
+                0.0
+            },
         }
     }
+}
+
+/// One joint's error between two model matrices, at the joint's origin and at its tip (`tip` in
+/// the bone's local space): the larger displacement in units, and the larger in pixels through
+/// `view` (`None` when neither reference point is in view).
+#[inline]
+pub(crate) fn point_pair_error(
+    pose: &Mat4,
+    reference: &Mat4,
+    tip: Vec3,
+    position: Vec3,
+    view: &View,
+) -> (f32, Option<f32>) {
+    let (oa, ob) = (pose.w_axis.truncate(), reference.w_axis.truncate());
+    let (ta, tb) = (pose.transform_point3(tip), reference.transform_point3(tip));
+    let (eo, et) = (oa.distance(ob), ta.distance(tb));
+    let px = |e: f32, at: Vec3| {
+        let at = position + at;
+        view.is_in_view(at, 0.0)
+            .then(|| e * view.pixels_per_unit(at))
+    };
+    let px = match (px(eo, ob), px(et, tb)) {
+        (Some(a), Some(b)) => Some(a.max(b)),
+        (a, b) => a.or(b),
+    };
+    (eo.max(et), px)
 }

@@ -1,11 +1,22 @@
 //! The playback core: key blocks stored key-major, the segment search, per-channel
 //! interpolation (step, linear with shortest-path rotations, cubic Hermite), and the per-character
-//! scratch the sampled values land in. [`crate::Clip`] builds these at load time.
+//! scratch the sampled values land in. [`crate::Clip`] builds these when it is built.
 
 use glam::{Quat, Vec3A, Vec4};
 
-use crate::clip::{Clip, Interpolation};
+use crate::transform::Transform;
 use crate::transform::interpolate_rotation;
+
+/// How values between two keys are computed (the glTF sampler interpolations).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Interpolation {
+    /// Hold the value of the previous key.
+    Step,
+    /// Linear for translation and scale; shortest-path spherical for rotation.
+    Linear,
+    /// Cubic Hermite spline with per-key in and out tangents (glTF `CUBICSPLINE`).
+    CubicSpline,
+}
 
 /// The values a block can hold, with their interpolation rules.
 pub(crate) trait KeyValue: Copy {
@@ -43,7 +54,7 @@ impl KeyValue for Quat {
 /// Animated channels of one property sharing one key-time array and one interpolation.
 #[derive(Clone, Debug)]
 pub(crate) struct Block<T> {
-    /// Index of the shared key times in [`Clip::groups`].
+    /// Index of the shared key times in `Clip::groups`.
     pub(crate) group: u32,
     pub(crate) interpolation: Interpolation,
     /// Target bone of each channel.
@@ -197,17 +208,17 @@ pub(crate) struct TrsScratch {
 }
 
 impl TrsScratch {
-    /// Loads the clip's base pose unless it is already loaded.
+    /// Loads a clip's base pose unless it is already loaded.
     #[inline]
-    pub(crate) fn prepare(&mut self, clip: &Clip) {
-        let id = clip as *const Clip as usize;
-        if self.loaded == id && self.t.len() == clip.base_pose.len() {
+    pub(crate) fn prepare(&mut self, base_pose: &[Transform]) {
+        let id = base_pose.as_ptr() as usize;
+        if self.loaded == id && self.t.len() == base_pose.len() {
             return;
         }
         self.t.clear();
         self.r.clear();
         self.s.clear();
-        for b in &clip.base_pose {
+        for b in base_pose {
             self.t.push(b.translation.into());
             self.r.push(b.rotation);
             self.s.push(b.scale.into());

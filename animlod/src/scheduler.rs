@@ -65,7 +65,8 @@ impl SchedulerParams {
 
 /// The update period in seconds of a bone with priority `priority` in a character with camera
 /// ratio `omega`: `s · (1 − Ω) / (Ω · max(P, P_min))`, 0 when Ω ≥ 1, infinite when Ω ≤ 0.
-pub fn update_period(priority: f32, omega: f32, params: &SchedulerParams) -> f32 {
+#[cfg(test)]
+pub(crate) fn update_period(priority: f32, omega: f32, params: &SchedulerParams) -> f32 {
     if omega >= 1.0 {
         0.0
     } else if omega <= 0.0 {
@@ -103,34 +104,88 @@ pub(crate) fn schedule(
     count
 }
 
-/// The error-bounded rule of [`crate::LodMode::ErrorBound`]: each slot adds `step · rate[i]` (the
-/// drift its hold causes over this frame, model units) to its running bound `drift[i]`, and
-/// interpolates (resetting the bound, stamping `last[i] = clock`) once `drift[i] · gain` (gain =
-/// pixels per unit) reaches `tolerance`. Returns how many interpolate.
-#[inline]
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn schedule_error(
-    rates: &[f32],
-    step: f32,
-    gain: f32,
-    tolerance: f32,
-    drift: &mut [f32],
-    clock: f32,
-    last: &mut [f32],
-    go: &mut [u8],
-) -> u32 {
-    let n = rates.len().min(drift.len()).min(last.len()).min(go.len());
-    let (rates, drift, last, go) = (&rates[..n], &mut drift[..n], &mut last[..n], &mut go[..n]);
-    let mut count = 0;
-    for i in 0..n {
-        let d = drift[i] + step * rates[i];
-        let update = d * gain >= tolerance;
-        go[i] = update as u8;
-        drift[i] = if update { 0.0 } else { d };
-        last[i] = if update { clock } else { last[i] };
-        count += update as u32;
+/// One character's error-bounded scheduling step ([`crate::LodMode::ErrorBound`]), as a job
+/// with named fields (in the manner of ozz-animation's sampling jobs). Each animated-bone slot
+/// `i` adds `step · rates[i]` (the drift its hold causes over this frame, model units; plus
+/// `jumps[i]` when the step wrapped around a looping clip) to its running bound `drift[i]`.
+/// A point of bone `i`'s subtree is displaced by at most the sum of the drifts of `i` and its
+/// held animated ancestors (`chain[i]`), so, visiting parents first, slot `i` interpolates —
+/// resetting its drift and stamping `last[i] = clock` — once `chain[i] · pixels_per_unit`
+/// reaches `tolerance_px`. Every chain then stays under the tolerance: an ancestor's chain
+/// already does when its descendants are visited.
+pub(crate) struct ErrorBoundJob<'a> {
+    /// Hold error rate of each slot over this frame's step (model units per second).
+    pub(crate) rates: &'a [f32],
+    /// Per slot: a displacement (model units) added once before the rate — the looping clip's
+    /// end→start jump when this step wrapped; empty when it did not.
+    pub(crate) jumps: &'a [f32],
+    /// Per slot: the slot of its nearest animated ancestor (`u32::MAX`: none); ancestors come
+    /// before their descendants.
+    pub(crate) ancestors: &'a [u32],
+    /// Playback seconds advanced this frame.
+    pub(crate) step: f32,
+    /// Pixels per model unit at the character's nearest visible depth.
+    pub(crate) pixels_per_unit: f32,
+    /// Largest on-screen displacement (pixels) the held bones may cause at any point.
+    pub(crate) tolerance_px: f32,
+    /// Clock time stamped on the slots that interpolate.
+    pub(crate) clock: f32,
+    /// Per slot: running drift bound of its hold (model units), updated.
+    pub(crate) drift: &'a mut [f32],
+    /// Per slot: clock time of the last interpolation, updated.
+    pub(crate) last: &'a mut [f32],
+    /// Per slot: written 1 if it interpolates now, else 0.
+    pub(crate) go: &'a mut [u8],
+    /// Per slot: scratch for the summed drift down its chain.
+    pub(crate) chain: &'a mut [f32],
+}
+
+impl ErrorBoundJob<'_> {
+    /// Runs the job over the shortest of its slices; returns how many slots interpolate.
+    /// Branch-free over contiguous arrays.
+    #[inline]
+    pub(crate) fn run(self) -> u32 {
+        let n = self
+            .rates
+            .len()
+            .min(self.ancestors.len())
+            .min(self.drift.len())
+            .min(self.last.len())
+            .min(self.go.len())
+            .min(self.chain.len());
+        let (rates, ancestors, drift, last, go, chain) = (
+            &self.rates[..n],
+            &self.ancestors[..n],
+            &mut self.drift[..n],
+            &mut self.last[..n],
+            &mut self.go[..n],
+            &mut self.chain[..n],
+        );
+        if !self.jumps.is_empty() {
+            for (d, &j) in drift.iter_mut().zip(self.jumps) {
+                *d += j;
+            }
+        }
+        let (step, gain, tolerance, clock) = (
+            self.step,
+            self.pixels_per_unit,
+            self.tolerance_px,
+            self.clock,
+        );
+        let mut count = 0;
+        for i in 0..n {
+            let a = ancestors[i] as usize;
+            let above = if a < i { chain[a] } else { 0.0 };
+            let d = drift[i] + step * rates[i];
+            let update = (above + d) * gain >= tolerance;
+            go[i] = update as u8;
+            drift[i] = if update { 0.0 } else { d };
+            chain[i] = above + drift[i];
+            last[i] = if update { clock } else { last[i] };
+            count += update as u32;
+        }
+        count
     }
-    count
 }
 
 #[cfg(test)]

@@ -2,7 +2,7 @@
 //! transforms, inverse bind matrices, and the structural facts the priorities use (depth, number
 //! of descendants).
 
-use glam::Mat4;
+use glam::{Mat4, Vec3};
 
 use crate::error::BuildError;
 use crate::ids::BoneId;
@@ -43,6 +43,8 @@ pub struct Skeleton {
     is_joint: Vec<bool>,
     depth: Vec<u32>,
     descendants: Vec<u32>,
+    /// Per bone, in its own local space: the point that turns with it (see [`Skeleton::tip`]).
+    tips: Vec<Vec3>,
 }
 
 impl Skeleton {
@@ -100,6 +102,7 @@ impl Skeleton {
             inverse_bind.push(b.inverse_bind);
             is_joint.push(b.is_joint);
         }
+        let tips = bone_tips(&parents, &rest);
         let rest_locals = rest.iter().map(Transform::to_affine).collect();
         let parents_sentinel = parents
             .iter()
@@ -115,6 +118,7 @@ impl Skeleton {
             is_joint,
             depth,
             descendants,
+            tips,
         })
     }
 
@@ -170,7 +174,7 @@ impl Skeleton {
     }
 
     /// Rest local transforms of all bones.
-    pub fn rest_pose(&self) -> &[Transform] {
+    pub(crate) fn rest_pose(&self) -> &[Transform] {
         &self.rest
     }
 
@@ -200,13 +204,32 @@ impl Skeleton {
     }
 
     /// Depth of the deepest bone.
-    pub fn max_depth(&self) -> u32 {
+    pub(crate) fn max_depth(&self) -> u32 {
         self.depth.iter().copied().max().unwrap_or(0)
     }
 
     /// Number of direct and indirect children of a bone.
-    pub fn descendant_count(&self, bone: BoneId) -> u32 {
+    pub(crate) fn descendant_count(&self, bone: BoneId) -> u32 {
         self.descendants[bone.index()]
+    }
+
+    /// The bone's tip in its own local space: a point at the bone's length along its axis, which
+    /// turns with the bone. Errors are measured there as well as at the bone's origin, because a
+    /// bone's own rotation moves only its tip (and its children): measured at origins alone, a
+    /// leaf bone animated by rotation shows no error however wrong it is.
+    ///
+    /// A bone with children points at its farthest child (its tip is that child's rest
+    /// translation). A leaf gets a virtual tip continuing its parent's direction, at its parent's
+    /// length (the distance from the parent); a bone with no length of its own there (a root, a
+    /// bone at its parent's origin) gets its parent's tip length, or else the skeleton's longest
+    /// bone, along its local +Y (the glTF exporters' bone axis).
+    pub fn tip(&self, bone: BoneId) -> Vec3 {
+        self.tips[bone.index()]
+    }
+
+    /// Every bone's tip in its local space (see [`Skeleton::tip`]).
+    pub(crate) fn tips(&self) -> &[Vec3] {
+        &self.tips
     }
 
     /// Model-space matrices of a pose given as local transforms (one per bone).
@@ -242,12 +265,57 @@ impl Skeleton {
     }
 }
 
+/// Tips of every bone in local space (see [`Skeleton::tip`]); `parents` parents first.
+fn bone_tips(parents: &[u32], rest: &[Transform]) -> Vec<Vec3> {
+    const EPS: f32 = 1e-6;
+    let n = parents.len();
+    let mut tips = vec![Vec3::ZERO; n];
+    // Farthest child's rest translation.
+    for c in 0..n {
+        let p = parents[c];
+        if p != NO_PARENT && rest[c].translation.length() > tips[p as usize].length() {
+            tips[p as usize] = rest[c].translation;
+        }
+    }
+    let longest = tips.iter().map(|t| t.length()).fold(0.0f32, f32::max);
+    let fallback = if longest > EPS { longest } else { 1.0 };
+    for b in 0..n {
+        if tips[b].length() > EPS {
+            continue;
+        }
+        let r = &rest[b];
+        let along = r.translation.length();
+        // In the bone's local frame, undoing its rest rotation and scale.
+        let local_dir = |v: Vec3| {
+            let d = r.rotation.inverse() * v;
+            let s = r.scale;
+            if s.abs().min_element() > EPS {
+                d / s
+            } else {
+                d
+            }
+        };
+        tips[b] = if along > EPS {
+            local_dir(r.translation)
+        } else {
+            let len = match parents[b] {
+                NO_PARENT => fallback,
+                p => tips[p as usize].length().max(EPS),
+            };
+            let len = if len > EPS { len } else { fallback };
+            local_dir(Vec3::Y * len)
+        };
+    }
+    tips
+}
+
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use glam::{Quat, Vec3};
 
-    fn bone(name: &str, parent: Option<u32>, y: f32) -> BoneDesc {
+    /// A joint `y` units above its parent (test helper).
+    pub(crate) fn bone(name: &str, parent: Option<u32>, y: f32) -> BoneDesc {
         BoneDesc {
             name: name.into(),
             parent: parent.map(BoneId::from_raw),
@@ -276,6 +344,20 @@ mod tests {
         assert_eq!(s.find("arm"), Some(BoneId::from_raw(3)));
         let m = s.rest_model_matrices();
         assert!((m[2].w_axis.y - 2.5).abs() < 1e-6);
+        // Tips: the farthest child; a leaf continues its parent's direction at its own length.
+        assert_eq!(s.tip(BoneId::from_raw(1)), Vec3::new(0.0, 0.5, 0.0));
+        assert_eq!(s.tip(BoneId::from_raw(3)), Vec3::new(0.0, 0.2, 0.0));
+        // A rotated leaf: its tip is the parent→leaf direction in its own frame.
+        let mut leaf = bone("leaf", Some(0), 1.0);
+        leaf.rest.rotation = glam::Quat::from_rotation_z(std::f32::consts::FRAC_PI_2);
+        let s = Skeleton::new(vec![bone("root", None, 0.0), leaf]).unwrap();
+        assert!(
+            s.tip(BoneId::from_raw(1))
+                .abs_diff_eq(Vec3::new(1.0, 0.0, 0.0), 1e-6)
+        );
+        let m = s.rest_model_matrices();
+        let tip = m[1].transform_point3(s.tip(BoneId::from_raw(1)));
+        assert!(tip.abs_diff_eq(Vec3::new(0.0, 2.0, 0.0), 1e-5), "{tip}");
     }
 
     #[test]

@@ -31,12 +31,6 @@ impl Transform {
         compose(self.scale.into(), self.rotation, self.translation.into())
     }
 
-    /// The transform as a 4×4 column-major matrix.
-    #[inline]
-    pub fn to_mat4(&self) -> Mat4 {
-        Mat4::from_scale_rotation_translation(self.scale, self.rotation, self.translation)
-    }
-
     /// Whether every component is finite.
     pub fn is_finite(&self) -> bool {
         self.translation.is_finite() && self.rotation.is_finite() && self.scale.is_finite()
@@ -53,7 +47,7 @@ impl Default for Transform {
 /// Both describe the same rotation; interpolating between keys in one hemisphere takes the short
 /// arc.
 #[inline]
-pub fn align_hemisphere(reference: Quat, q: Quat) -> Quat {
+pub(crate) fn align_hemisphere(reference: Quat, q: Quat) -> Quat {
     if reference.dot(q) < 0.0 { -q } else { q }
 }
 
@@ -64,7 +58,7 @@ pub fn align_hemisphere(reference: Quat, q: Quat) -> Quat {
 /// accurate for tiny angles where `2·acos(dot)` loses everything to rounding (`acos` of a dot
 /// product within one ulp of 1 is already 3e-4 rad).
 #[inline]
-pub fn rotation_angle(a: Quat, b: Quat) -> f32 {
+pub(crate) fn rotation_angle(a: Quat, b: Quat) -> f32 {
     let b = align_hemisphere(a, b);
     let a = Vec4::from(a);
     let b = Vec4::from(b);
@@ -79,7 +73,7 @@ pub fn rotation_angle(a: Quat, b: Quat) -> f32 {
 /// depends on the cosine `d` between the keys (A. Kapoulkine, "Approximating slerp", 2015). The
 /// test `onlerp_matches_slerp` bounds the deviation from slerp.
 #[inline]
-pub fn interpolate_rotation(a: Quat, b: Quat, t: f32) -> Quat {
+pub(crate) fn interpolate_rotation(a: Quat, b: Quat, t: f32) -> Quat {
     let av = Vec4::from(a);
     let bv = Vec4::from(b);
     let d = av.dot(bv).abs();

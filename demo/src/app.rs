@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use crate::cli::{self, EXIT_FAILURE, EXIT_USAGE, Options, Parsed};
 use crate::crowd::{self, CrowdOutcome, CrowdPlan};
+use crate::engine::{self, EngineOutcome};
 use crate::error::DemoError;
 use crate::machine::Machine;
 use crate::net::{self, NetOutcome, NetPlan};
@@ -136,6 +137,18 @@ fn run(
         crowd_outcome = Some(outcome);
     }
 
+    let mut engine_outcome: Option<EngineOutcome> = None;
+    if options.section.engine() {
+        say(
+            out,
+            "== Engine scenes (issue 14): colliders, wind, a cape on a walking character ==\n",
+        );
+        let outcome = engine::run(options.quick, progress)?;
+        seconds.engine = outcome.section.seconds;
+        say(out, &outcome.text);
+        engine_outcome = Some(outcome);
+    }
+
     let mut perception_outcome: Option<PerceptionOutcome> = None;
     if let Some(plan) = &perception_plan {
         say(
@@ -169,6 +182,7 @@ fn run(
         machine: &machine,
         net: net_outcome.as_ref().map(|o| &o.section),
         crowd: crowd_outcome.as_ref().map(|o| &o.section),
+        engine: engine_outcome.as_ref().map(|o| &o.section),
         perception: perception_outcome.as_ref().map(|o| &o.section),
         files: names.clone(),
         seconds: seconds.clone(),
@@ -324,6 +338,29 @@ fn summary(report: &Report<'_>, dir: &Path, files: &[String], total_s: f64) -> S
                     "beyond the thesis".to_string()
                 },
             ]);
+        }
+    }
+    if let Some(engine) = report.engine {
+        for s in &engine.scenes {
+            let reference = s.runs.iter().find(|r| r.strategy == "reference");
+            let lod = s.runs.iter().find(|r| r.strategy == "lod");
+            if let (Some(reference), Some(lod)) = (reference, lod) {
+                t.row([
+                    format!("engine: {} ({} colliders)", s.name, s.colliders),
+                    format!(
+                        "LOD {} of {} nodes: {} ms/step ({} contact), screen RMS {} px, \
+                         penetration {} mm (reference {} mm)",
+                        num(lod.nodes, 0),
+                        num(reference.nodes, 0),
+                        num(lod.ms_per_step, 2),
+                        pct(lod.collision_fraction, 0),
+                        num(lod.screen_rms_px.unwrap_or(f64::NAN), 2),
+                        num(lod.max_penetration_mm, 1),
+                        num(reference.max_penetration_mm, 1)
+                    ),
+                    "beyond the paper (no collisions measured)".to_string(),
+                ]);
+            }
         }
     }
     if let Some(p) = report.perception {

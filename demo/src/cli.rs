@@ -34,9 +34,12 @@ const USAGE: &str = "\
 slod-demo: simulation and animation level of detail, measured beside the papers
 
 USAGE:
-    slod-demo [OPTIONS]              everything: the net, the crowd, then perception (about 3 minutes)
+    slod-demo [OPTIONS]              everything: the net, the crowd, the engine scenes, then
+                                     perception (about 3 minutes)
     slod-demo net [OPTIONS]          the swinging net only (simulation paper, section 6)
     slod-demo crowd [OPTIONS]        the crowd only (bone-priority thesis, chapter 13)
+    slod-demo engine [OPTIONS]       the engine scenes only: colliders, wind, a cape on a walking
+                                     character; reference and LOD at 30% of the nodes
     slod-demo perception [OPTIONS]   perception only: every strategy on every scene family,
                                      on-screen error in pixels (about 90 s)
 
@@ -78,6 +81,8 @@ pub(crate) enum Section {
     Net,
     /// The crowd only.
     Crowd,
+    /// The engine scenes only.
+    Engine,
     /// The perception scenes only.
     Perception,
 }
@@ -89,6 +94,7 @@ impl Section {
             Section::All => "all",
             Section::Net => "net",
             Section::Crowd => "crowd",
+            Section::Engine => "engine",
             Section::Perception => "perception",
         }
     }
@@ -101,6 +107,11 @@ impl Section {
     /// Whether the crowd runs.
     pub(crate) fn crowd(self) -> bool {
         matches!(self, Section::All | Section::Crowd)
+    }
+
+    /// Whether the engine scenes run.
+    pub(crate) fn engine(self) -> bool {
+        matches!(self, Section::All | Section::Engine)
     }
 
     /// Whether the perception scenes run.
@@ -308,12 +319,13 @@ pub(crate) fn parse(args: &[String]) -> Result<Parsed, DemoError> {
             "`{o}` is a net option; the `crowd` command does not run the net"
         )));
     }
-    if section == Section::Perception
+    if matches!(section, Section::Engine | Section::Perception)
         && let Some(o) =
             last_given(&matches, &NET_OPTIONS).or_else(|| last_given(&matches, &CROWD_OPTIONS))
     {
         return Err(usage_error(format!(
-            "`{o}` is a net or crowd option; the `perception` command takes only --out and --quick"
+            "`{o}` is a net or crowd option; the `{}` command runs neither",
+            section.name()
         )));
     }
     if let (Section::Net, Some(o)) = (section, last_given(&matches, &CROWD_OPTIONS)) {
@@ -402,12 +414,13 @@ fn word(v: &str) -> Result<Word, String> {
     Ok(match v {
         "net" => Word::Run(Section::Net),
         "crowd" => Word::Run(Section::Crowd),
+        "engine" => Word::Run(Section::Engine),
         "perception" => Word::Run(Section::Perception),
         "all" => Word::Run(Section::All),
         "help" => Word::Help,
         _ => {
             return Err(format!(
-                "unknown command `{v}` (expected `net`, `crowd`, `perception` or none)"
+                "unknown command `{v}` (expected `net`, `crowd`, `engine`, `perception` or none)"
             ));
         }
     })

@@ -145,6 +145,10 @@ pub(crate) struct RowReport {
     pub(crate) lod_ms: f64,
     /// lod_ms / full_ms.
     pub(crate) cost_ratio: f64,
+    /// Median frame time (ms) of culling alone (full detail for visible characters only).
+    pub(crate) cull_ms: f64,
+    /// Characters in view per frame (the camera stands outside the crowd).
+    pub(crate) visible_characters: f64,
     /// Bone interpolations per frame at full detail.
     pub(crate) full_interpolated: f64,
     /// Bone interpolations per frame with LOD.
@@ -159,6 +163,8 @@ pub(crate) struct RowReport {
     pub(crate) mean_error_px: f32,
     /// Largest on-screen joint error (pixels).
     pub(crate) max_error_px: f32,
+    /// Root mean square on-screen joint error (pixels).
+    pub(crate) rms_error_px: f32,
     /// Mean joint error (scene units).
     pub(crate) mean_error_units: f32,
     /// Largest joint error (scene units).
@@ -172,6 +178,8 @@ impl From<&SweepRow> for RowReport {
             full_ms: r.full_ms,
             lod_ms: r.lod_ms,
             cost_ratio: r.cost_ratio(),
+            cull_ms: r.cull_ms,
+            visible_characters: r.visible,
             full_interpolated: r.full_interpolated,
             lod_interpolated: r.lod_interpolated,
             lod_concatenated: r.lod_concatenated,
@@ -179,6 +187,7 @@ impl From<&SweepRow> for RowReport {
             mean_ratio: r.mean_ratio,
             mean_error_px: r.mean_px,
             max_error_px: r.max_px,
+            rms_error_px: r.rms_px,
             mean_error_units: r.mean_units,
             max_error_units: r.max_units,
         }
@@ -344,7 +353,7 @@ fn lod_report(lod: LodMode) -> LodReport {
 /// Runs every sweep of the plan.
 pub(crate) fn run(plan: &CrowdPlan, progress: Progress) -> Result<CrowdOutcome, DemoError> {
     let start = Instant::now();
-    let base = Rig::from_gltf_path(&plan.rig_path).map_err(|source| DemoError::Import {
+    let base = animlod::build::import_path(&plan.rig_path).map_err(|source| DemoError::Import {
         path: plan.rig_path.clone(),
         source,
     })?;

@@ -12,11 +12,13 @@
 mod app;
 mod cli;
 mod crowd;
+mod engine;
 mod error;
 mod font;
 mod machine;
 mod net;
 mod paper;
+mod peer;
 mod perception;
 mod plots;
 mod progress;

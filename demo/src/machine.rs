@@ -86,7 +86,7 @@ fn read_trimmed(path: &str) -> Option<String> {
     (!s.is_empty()).then(|| s.to_string())
 }
 
-fn cpu_model() -> Option<String> {
+pub(crate) fn cpu_model() -> Option<String> {
     let info = std::fs::read_to_string("/proc/cpuinfo").ok()?;
     // x86 says "model name"; some ARM kernels say "Hardware", "cpu model" or "Processor".
     ["model name", "cpu model", "Hardware", "Processor"]

@@ -1,7 +1,7 @@
 //! The published figures we print beside ours, copied from the two source documents,
 //! `simulation-lod-treecut-softbody-bswdf.txt` (section 6) and
-//! `animation-lod-bone-priority-thesis.txt` (chapter 13), and one
-//! documented peer measurement of Bullet. Nothing here is measured by the demo.
+//! `animation-lod-bone-priority-thesis.txt` (chapter 13). Nothing here is measured by the demo
+//! (Bullet on this host: `peer`).
 
 use serde::Serialize;
 
@@ -131,31 +131,6 @@ pub(crate) fn table2_row(compression: f32) -> Option<&'static PaperStep> {
         .iter()
         .find(|r| r.matches.is_some_and(|m| (m - compression).abs() < 1e-4))
 }
-
-/// A documented peer measurement of Bullet's own soft body, not taken on this host.
-#[derive(Clone, Copy, Debug, Serialize)]
-pub(crate) struct PeerBullet {
-    /// What was measured.
-    pub(crate) what: &'static str,
-    /// Vertices per side of the cloth.
-    pub(crate) size: u32,
-    /// Solver iterations per step.
-    pub(crate) iterations: u32,
-    /// Mean time per step (ms).
-    pub(crate) ms_per_step: f64,
-    /// Where the figure is written down.
-    pub(crate) source: &'static str,
-}
-
-/// Bullet's btSoftBody on a 65×65 cloth built from a triangle mesh, 20 iterations, corners
-/// pinned: the peer figure the softbody crate's `step` benchmark compares against.
-pub(crate) const PEER_BULLET_65: PeerBullet = PeerBullet {
-    what: "Bullet btSoftBody, 65x65 triangle-mesh cloth, corners pinned",
-    size: 65,
-    iterations: 20,
-    ms_per_step: 5.1,
-    source: "peer measurement documented in softbody/benches/step.rs (not measured on this host)",
-};
 
 /// The thesis' crowd test (chapter 13).
 #[derive(Clone, Copy, Debug, Serialize)]

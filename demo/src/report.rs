@@ -7,6 +7,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::crowd::CrowdSection;
+use crate::engine::EngineSection;
 use crate::error::DemoError;
 use crate::machine::Machine;
 use crate::net::NetSection;
@@ -22,6 +23,8 @@ pub(crate) struct Seconds {
     pub(crate) net: f64,
     /// The crowd section's measurements.
     pub(crate) crowd: f64,
+    /// The engine section's measurements.
+    pub(crate) engine: f64,
     /// The perception section's measurements.
     pub(crate) perception: f64,
     /// Drawing pictures and plots.
@@ -35,7 +38,7 @@ pub(crate) struct Seconds {
 pub(crate) struct Report<'a> {
     /// [`SCHEMA`].
     pub(crate) schema: &'static str,
-    /// `all`, `net`, `crowd` or `perception`.
+    /// `all`, `net`, `crowd`, `engine` or `perception`.
     pub(crate) command: &'static str,
     /// Whether `--quick` was given.
     pub(crate) quick: bool,
@@ -47,6 +50,8 @@ pub(crate) struct Report<'a> {
     pub(crate) net: Option<&'a NetSection>,
     /// The crowd (null when not run).
     pub(crate) crowd: Option<&'a CrowdSection>,
+    /// The engine scenes (null when not run).
+    pub(crate) engine: Option<&'a EngineSection>,
     /// Perception scenes and strategies on screen (null when not run).
     pub(crate) perception: Option<&'a PerceptionSection>,
     /// Files written next to the report (names relative to the output directory).

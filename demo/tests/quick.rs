@@ -256,7 +256,7 @@ fn check_net(net: &Value) {
     let sources: HashSet<&str> = rows.iter().map(|r| r["source"].as_str().unwrap()).collect();
     assert_eq!(
         sources,
-        HashSet::from(["paper", "ours", "documented peer"]),
+        HashSet::from(["paper", "ours", "peer"]),
         "Table 2 sets ours beside the paper's and Bullet's"
     );
     let paper_30 = rows
@@ -270,7 +270,14 @@ fn check_net(net: &Value) {
     );
     has(
         &t2["peer_bullet"],
-        &["what", "size", "iterations", "ms_per_step", "source"],
+        &[
+            "what",
+            "size",
+            "iterations",
+            "ms_per_step",
+            "source",
+            "results_file",
+        ],
     );
 
     let f5 = &net["figure5"];

@@ -20,8 +20,7 @@ use glam::Vec3;
 use salience::View;
 
 use animlod::{
-    BoneId, BuildError, ClipId, Crowd, CrowdError, ErrorSum, LodMode, PriorityWeights, Rig,
-    SchedulerParams,
+    BuildError, ClipId, Crowd, CrowdError, ErrorSum, LodMode, PriorityWeights, Rig, SchedulerParams,
 };
 
 use crate::rig::grown_to;
@@ -74,9 +73,14 @@ pub struct CrowdExperiment {
     pub weights: PriorityWeights,
     /// Priority source of the LOD crowd.
     pub source: animlod::PrioritySource,
-    /// Camera distances from the crowd's centre (the camera looks at the centre along −z, from
-    /// the height of the characters' bounding-sphere centre).
+    /// Camera distances (the camera looks along −z, at the height of the characters'
+    /// bounding-sphere centre); see `camera_outside` for where they are measured from.
     pub distances: Vec<f32>,
+    /// Whether distances are measured from the crowd's front edge (the nearest character's
+    /// bounding sphere), so the camera is always outside the crowd and every character is in
+    /// front of it; otherwise from the crowd's centre, as the thesis did, which puts the camera
+    /// inside the crowd at short distances (part of the "saving" there is then culling).
+    pub camera_outside: bool,
     /// Frames run before measuring, at each distance.
     pub warmup_frames: usize,
     /// Frames measured at each distance.
@@ -122,6 +126,7 @@ impl CrowdExperiment {
                 100.0, 200.0, 400.0, 600.0, 800.0, 1000.0, 1200.0, 1400.0, 1600.0, 1800.0, 2000.0,
                 2500.0, 3000.0,
             ],
+            camera_outside: true,
             warmup_frames: 30,
             frames: 120,
             dt: 1.0 / 60.0,
@@ -157,6 +162,14 @@ pub struct SweepRow {
     pub mean_px: f32,
     /// Largest on-screen joint error (pixels).
     pub max_px: f32,
+    /// Root mean square on-screen error (pixels) over visible joints and frames.
+    pub rms_px: f32,
+    /// Mean number of characters whose bounding sphere is in view per frame.
+    pub visible: f64,
+    /// Median frame time (ms) of a third crowd that only culls: full detail for every visible
+    /// character, nothing for the others. `lod_ms / cull_ms` is the saving of LOD beyond
+    /// culling.
+    pub cull_ms: f64,
     /// Mean joint error in scene units.
     pub mean_units: f32,
     /// Largest joint error in scene units.
@@ -195,7 +208,7 @@ pub fn thesis_rig(rig: &Rig) -> Result<Rig, BuildError> {
             what: "rig height".into(),
         });
     }
-    grown.scaled(THESIS_HEIGHT / height)
+    animlod::build::scaled(&grown, THESIS_HEIGHT / height)
 }
 
 /// Character positions for a layout, centred on the origin.
@@ -260,7 +273,15 @@ fn median(v: &mut [f64]) -> f64 {
     v[v.len() / 2]
 }
 
-/// Runs the sweep: at each distance, both crowds are warmed up then measured frame by frame.
+/// A LOD mode that only culls: Ω = 1 for every character whose bounding sphere is in view
+/// (projected radius above 0), Ω = 0 for the others.
+pub const CULL_ONLY: LodMode = LodMode::PixelSize {
+    full_detail_px: 1e-9,
+    freeze_below_px: 0.0,
+};
+
+/// Runs the sweep: at each distance, the crowds (full detail, LOD, and culling only) are warmed
+/// up then measured frame by frame.
 pub fn run(rig: &Arc<Rig>, cfg: &CrowdExperiment) -> Result<Vec<SweepRow>, CrowdError> {
     if !(cfg.dt.is_finite() && cfg.dt >= 0.0) {
         return Err(CrowdError::InvalidArgument {
@@ -269,19 +290,31 @@ pub fn run(rig: &Arc<Rig>, cfg: &CrowdExperiment) -> Result<Vec<SweepRow>, Crowd
         });
     }
     let (mut full, mut lod) = build_crowds(rig, cfg)?;
-    let (center, _) = rig.bounds();
+    let mut cull = full.clone();
+    cull.set_lod(CULL_ONLY)?;
+    let (center, radius) = rig.bounds();
+    let front = if cfg.camera_outside {
+        full.character_ids()
+            .map(|id| full.position(id).map(|p| p.z + center.z + radius))
+            .collect::<Result<Vec<_>, _>>()?
+            .into_iter()
+            .fold(f32::MIN, f32::max)
+    } else {
+        0.0
+    };
     let sk = rig.skeleton();
-    let joints: Vec<bool> = sk.bones().map(|b: BoneId| sk.is_joint(b)).collect();
     let ids: Vec<_> = full.character_ids().collect();
     let lod_ids: Vec<_> = lod.character_ids().collect();
     let mut rows = Vec::with_capacity(cfg.distances.len());
     for &distance in &cfg.distances {
-        let view = cfg.view_from(Vec3::new(0.0, center.y, distance))?;
+        let view = cfg.view_from(Vec3::new(0.0, center.y, front.max(0.0) + distance))?;
         for _ in 0..cfg.warmup_frames {
             full.advance(cfg.dt, &view)?;
             lod.advance(cfg.dt, &view)?;
+            cull.advance(cfg.dt, &view)?;
         }
-        let (mut tf, mut tl) = (
+        let (mut tf, mut tl, mut tc) = (
+            Vec::with_capacity(cfg.frames),
             Vec::with_capacity(cfg.frames),
             Vec::with_capacity(cfg.frames),
         );
@@ -296,8 +329,12 @@ pub fn run(rig: &Arc<Rig>, cfg: &CrowdExperiment) -> Result<Vec<SweepRow>, Crowd
             let t1 = Instant::now();
             let sl = lod.advance(cfg.dt, &view)?;
             let t2 = Instant::now();
+            let sc = cull.advance(cfg.dt, &view)?;
+            let t3 = Instant::now();
             tf.push((t1 - t0).as_secs_f64() * 1e3);
             tl.push((t2 - t1).as_secs_f64() * 1e3);
+            tc.push((t3 - t2).as_secs_f64() * 1e3);
+            row.visible += (sc.characters - sc.characters_frozen) as f64;
             row.full_interpolated += sf.bones_interpolated as f64;
             row.lod_interpolated += sl.bones_interpolated as f64;
             row.lod_concatenated += sl.bones_concatenated as f64;
@@ -306,7 +343,7 @@ pub fn run(rig: &Arc<Rig>, cfg: &CrowdExperiment) -> Result<Vec<SweepRow>, Crowd
                 row.mean_ratio += lod.ratio(b)? as f64;
                 let position = full.position(a)?;
                 sum.add_pose(
-                    &joints,
+                    sk,
                     lod.model_matrices(b)?,
                     full.model_matrices(a)?,
                     position,
@@ -317,6 +354,8 @@ pub fn run(rig: &Arc<Rig>, cfg: &CrowdExperiment) -> Result<Vec<SweepRow>, Crowd
         let frames = cfg.frames.max(1) as f64;
         row.full_ms = median(&mut tf);
         row.lod_ms = median(&mut tl);
+        row.cull_ms = median(&mut tc);
+        row.visible /= frames;
         row.full_interpolated /= frames;
         row.lod_interpolated /= frames;
         row.lod_concatenated /= frames;
@@ -325,6 +364,7 @@ pub fn run(rig: &Arc<Rig>, cfg: &CrowdExperiment) -> Result<Vec<SweepRow>, Crowd
         let e = sum.finish();
         row.mean_px = e.mean_px;
         row.max_px = e.max_px;
+        row.rms_px = e.rms_px;
         row.mean_units = e.mean;
         row.max_units = e.max;
         rows.push(row);
@@ -335,13 +375,15 @@ pub fn run(rig: &Arc<Rig>, cfg: &CrowdExperiment) -> Result<Vec<SweepRow>, Crowd
 /// Formats rows as a plain-text table.
 pub fn format_table(rows: &[SweepRow]) -> String {
     let mut s = String::from(
-        "distance  full ms   lod ms  cost  interp/frame (full)  concat/frame  frozen  mean Ω  mean px  max px\n",
+        "distance  visible  full ms  cull ms   lod ms  cost  interp/frame (full)  concat/frame  frozen  mean Ω  mean px  max px\n",
     );
     for r in rows {
         s += &format!(
-            "{:8.0} {:8.4} {:8.4} {:5.2} {:8.0} ({:6.0}) {:13.0} {:7.1} {:7.3} {:8.3} {:7.2}\n",
+            "{:8.0} {:8.1} {:8.4} {:8.4} {:8.4} {:5.2} {:8.0} ({:6.0}) {:13.0} {:7.1} {:7.3} {:8.3} {:7.2}\n",
             r.distance,
+            r.visible,
             r.full_ms,
+            r.cull_ms,
             r.lod_ms,
             r.cost_ratio(),
             r.lod_interpolated,
@@ -368,7 +410,7 @@ mod tests {
     }
 
     fn thesis() -> (Arc<Rig>, ClipId) {
-        let base = Rig::from_gltf_path(&asset("GDQuest_GDBot.glb")).unwrap();
+        let base = animlod::build::import_path(&asset("GDQuest_GDBot.glb")).unwrap();
         let rig = Arc::new(thesis_rig(&base).unwrap());
         let clip = rig.clip_by_name("walk").unwrap();
         (rig, clip)
@@ -389,22 +431,28 @@ mod tests {
             - ys.iter().copied().fold(f32::MAX, f32::min);
         assert!((h - THESIS_HEIGHT).abs() < 1e-2, "{h}");
         // Scaling keeps the constant channels constant (the tolerance is relative).
-        let base = Rig::from_gltf_path(&asset("GDQuest_GDBot.glb")).unwrap();
+        let base = animlod::build::import_path(&asset("GDQuest_GDBot.glb")).unwrap();
         let walk = |r: &Rig| {
             r.clip(r.clip_by_name("walk").unwrap())
                 .unwrap()
                 .stats()
                 .constant
         };
-        assert_eq!(walk(&base.scaled(100.0).unwrap()), walk(&base));
+        assert_eq!(
+            walk(&animlod::build::scaled(&base, 100.0).unwrap()),
+            walk(&base)
+        );
     }
 
     #[test]
     fn error_bound_meets_the_pixel_targets_at_every_distance() {
-        // The targets for the crowd test: mean error under 0.5 px and maximum under 2 px
-        // at every distance. The thesis' own distance range cannot meet them (it freezes
-        // characters 100 px tall); the error-bounded mode does, at a fraction of the
-        // interpolations.
+        // The targets for the crowd test: mean error under 0.5 px and maximum under 2 px at every
+        // distance, measured at joint origins and tips with the camera outside the crowd. The
+        // thesis' own distance range cannot meet them (it freezes characters 100 px tall); the
+        // error-bounded mode does — its bound covers every point now (held chains sum their
+        // drift), so the maximum stays near 1 px. What that costs is measured, not assumed:
+        // with rotation counted, a 1 px bound needs most interpolations near the camera
+        // (~85–100%) and about half far away, so only "fewer far than near" is asserted here.
         let (rig, clip) = thesis();
         let mut cfg = CrowdExperiment::thesis(clip);
         cfg.lod = LodMode::ErrorBound { max_error_px: 1.0 };
@@ -422,20 +470,17 @@ mod tests {
             let rows = run(&rig, &cfg).unwrap();
             for r in &rows {
                 assert!(
-                    r.mean_px < 0.5 && r.max_px < 2.0,
+                    r.mean_px < 0.5 && r.max_px < 1.1,
                     "{layout:?}\n{}",
                     format_table(&rows)
                 );
-                assert!(
-                    r.lod_interpolated < 0.6 * r.full_interpolated,
-                    "{}",
-                    format_table(&rows)
-                );
+                assert!(r.lod_interpolated <= r.full_interpolated);
             }
             // Farther away, fewer interpolations are needed for the same pixel bound.
-            let far = rows.last().unwrap();
+            let (near, far) = (&rows[0], rows.last().unwrap());
             assert!(
-                far.lod_interpolated < 0.3 * far.full_interpolated,
+                far.lod_interpolated < 0.8 * near.lod_interpolated
+                    && far.lod_interpolated < 0.8 * far.full_interpolated,
                 "{}",
                 format_table(&rows)
             );

@@ -4,6 +4,8 @@
 //!
 //! - [`net`] — the simulation paper's swinging net (`simulation-lod-treecut-softbody-bswdf.txt`,
 //!   section 6): a full-resolution reference, feedback runs and static cuts, measured.
+//! - [`engine`] — the engine scenes (issue 14): colliders, wind, a cape worn by a walking
+//!   character, at full resolution and at 30% of the nodes.
 //! - [`perception`] — every strategy on every scene family (the net, a close-up of a large
 //!   cloth, off-screen, dolly and orbit, a flag in wind, a curtain on a moving rail, an irregular
 //!   mesh, a 129² net) at the same node count, measured on screen against the reference.
@@ -15,6 +17,7 @@
 #![warn(missing_docs)]
 
 pub mod crowd;
+pub mod engine;
 pub mod net;
 pub mod perception;
 pub mod rig;

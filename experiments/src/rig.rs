@@ -74,7 +74,7 @@ pub fn grown_to(rig: &Rig, bones: usize) -> Result<Rig, BuildError> {
             s
         })
         .collect();
-    let mut grown = Rig::new(skeleton, clips, skins)?;
+    let mut grown = animlod::build::rig(skeleton, clips, skins)?;
     grown.set_import_report(*rig.import_report());
     Ok(grown)
 }

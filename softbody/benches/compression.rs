@@ -7,7 +7,7 @@
 //! use cuts with 75 % and 30 % of the nodes, spread uniformly (uniform level-1 cut with
 //! level-1 nodes refined in a scattered order until the count is reached). `tc_75_blending`
 //! keeps about 25 transitions in flight, as the paper's runs did.
-use criterion::{Criterion, criterion_group, criterion_main};
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use softbody::treecut::{Cut, GridSpec, Hierarchy, NodeId};
 use softbody::{GridCloth, SolverSettings, TreeCutSettings, TreeCutSoftBody};
@@ -135,6 +135,60 @@ fn bench(c: &mut Criterion) {
         "tc_75_blending: {} transitions in flight at the end",
         body.transitions_in_flight()
     );
+    after_operations(c);
+}
+
+/// A 75 % cut reached by operations (refines of scattered level-1 nodes from the uniform
+/// level-1 cut, then 400 coarse/refine cycles), stepped with the particles as the operations
+/// left them (`scattered`) and after a spatial renumbering (`renumbered`), beside the same cut
+/// built at once (`built`). Throughput in link-iterations: the target is `renumbered`
+/// within 10 % of `built` per link-iteration.
+fn after_operations(c: &mut Criterion) {
+    let built = tc(0.75);
+    let target = built.particle_count();
+    let s = spec();
+    let h = Hierarchy::grid(&s).unwrap();
+    let cut = Cut::uniform(&h, 1);
+    let settings = TreeCutSettings {
+        solver: solver(),
+        blend_steps: 2,
+        ..TreeCutSettings::default()
+    };
+    let mut ops = TreeCutSoftBody::new(h, cut, settings).unwrap();
+    ops.set_auto_renumber(false);
+    for v in corners() {
+        ops.pin_vertex(v, s.position(v % COLS, v / COLS)).unwrap();
+    }
+    let order = scattered(ops.hierarchy(), 1);
+    for &p in order.iter().cycle().take(order.len() * 3) {
+        let on_cut = ops.cut().is_on_cut(p);
+        let churn = ops.particle_count() >= target;
+        let _ = match (on_cut, churn) {
+            (true, false) => ops.begin_refine(p),
+            (false, true) => ops.begin_coarse(p),
+            _ => continue,
+        };
+        ops.step();
+    }
+    ops.end_all();
+    let mut renumbered = ops.clone();
+    renumbered.renumber_particles();
+    let mut group = c.benchmark_group(format!(
+        "tc_75_after_ops ({} nodes, {} links)",
+        ops.particle_count(),
+        ops.link_count()
+    ));
+    for (name, mut body) in [
+        ("built", built),
+        ("scattered", ops),
+        ("renumbered", renumbered),
+    ] {
+        let it = u64::from(body.settings().solver.iterations * body.settings().solver.substeps);
+        group.throughput(Throughput::Elements(body.link_count() as u64 * it));
+        body.set_auto_renumber(false);
+        group.bench_function(name, |b| b.iter(|| black_box(&mut body).step()));
+    }
+    group.finish();
 }
 
 criterion_group!(benches, bench);

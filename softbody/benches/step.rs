@@ -2,11 +2,16 @@
 //!
 //! * `bullet65` / `bullet129`: 65×65 and 129×129 grids built like Bullet's cloth from a
 //!   triangle mesh (triangle edges + distance-2 bend links), 20 iterations, dt 1/60, four
-//!   corners pinned. Peer: Bullet 5.1 ms and 42 ms per step on this kind of machine.
+//!   corners pinned. Bullet itself on the same cloths: `python3 bench/peers/bullet_cloth.py`.
 //! * `paper`: the seed paper's net, 4266 nodes (a 79×54 grid) with structural links only.
-use criterion::{Criterion, criterion_group, criterion_main};
+//!
+//! Each runs once per kernel path this CPU supports (`…/avx512`, `…/avx2`, `…/lanes4`,
+//! `…/scalar`); the throughput is in link-iterations, so `1 / (elements per second)` is the
+//! cost of one link-iteration. Quick run:
+//! `cargo bench -p softbody --bench step -- --warm-up-time 1 --measurement-time 2`.
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
-use softbody::{GridCloth, SoftBody, SolverSettings};
+use softbody::{GridCloth, KernelPath, SoftBody, SolverSettings};
 use std::hint::black_box;
 
 fn settings() -> SolverSettings {
@@ -36,22 +41,40 @@ fn pinned(mut body: SoftBody, g: &GridCloth) -> SoftBody {
     body
 }
 
+/// Benchmarks one body on every supported kernel path (widest first).
+fn per_path(c: &mut Criterion, name: &str, body: &SoftBody) {
+    let mut group = c.benchmark_group(name);
+    let iterations = u64::from(body.settings().iterations * body.settings().substeps);
+    group.throughput(Throughput::Elements(body.link_count() as u64 * iterations));
+    let mut paths: Vec<KernelPath> = KernelPath::supported().collect();
+    paths.reverse();
+    for path in paths {
+        let mut body = body.clone();
+        body.set_kernel_path(path).unwrap();
+        group.bench_function(path.name(), |b| b.iter(|| black_box(&mut body).step()));
+    }
+    group.finish();
+}
+
 fn bench(c: &mut Criterion) {
     for n in [65u32, 129] {
         let g = grid(n, n);
-        let mut body = pinned(g.build_bullet(settings()).unwrap(), &g);
-        let name = format!("bullet{n} ({} links)", body.link_count());
-        c.bench_function(&name, |b| b.iter(|| black_box(&mut body).step()));
+        let body = pinned(g.build_bullet(settings()).unwrap(), &g);
+        per_path(
+            c,
+            &format!("bullet{n} ({} links)", body.link_count()),
+            &body,
+        );
     }
     let mut g = grid(79, 54);
     g.shear = false;
-    let mut body = pinned(g.build(settings()).unwrap(), &g);
+    let body = pinned(g.build(settings()).unwrap(), &g);
     let name = format!(
         "paper ({} nodes, {} links)",
         body.particle_count(),
         body.link_count()
     );
-    c.bench_function(&name, |b| b.iter(|| black_box(&mut body).step()));
+    per_path(c, &name, &body);
 }
 
 criterion_group!(benches, bench);

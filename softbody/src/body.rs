@@ -10,9 +10,11 @@
 //! a particle from one 16-byte load. Pinned particles have inverse mass 0; their true mass is
 //! kept in `masses` for momentum and centroids.
 
+use crate::collide::{Colliders, ContactParticles};
 use crate::error::SoftBodyError;
 use crate::group::{GroupId, GroupStore, GroupTarget};
 use crate::ids::{LinkId, ParticleId};
+use crate::kernel::KernelPath;
 use crate::links::{LinkInfo, LinkStore};
 use crate::settings::SolverSettings;
 use glam::{Vec3, Vec3A, Vec4};
@@ -39,6 +41,9 @@ pub struct SoftBody {
     anchors: Vec<Anchor>,
     links: LinkStore,
     groups: GroupStore,
+    kernel: KernelPath,
+    colliders: Colliders,
+    contact: ContactParticles,
 }
 
 fn finite3(v: Vec3, what: &'static str) -> Result<(), SoftBodyError> {
@@ -64,12 +69,31 @@ impl SoftBody {
             anchors: Vec::new(),
             links: LinkStore::default(),
             groups: GroupStore::default(),
+            kernel: KernelPath::detect(),
+            colliders: Colliders::default(),
+            contact: ContactParticles::default(),
         })
     }
 
     /// The current settings.
     pub fn settings(&self) -> &SolverSettings {
         &self.settings
+    }
+
+    /// The link kernel path this body uses ([`KernelPath::detect`] unless set).
+    pub fn kernel_path(&self) -> KernelPath {
+        self.kernel
+    }
+
+    /// Chooses the link kernel path. Every path gives bit-identical results (see
+    /// [`KernelPath`]), so this only changes speed; tests and benchmarks use it to compare paths.
+    /// A path this CPU cannot run is refused.
+    pub fn set_kernel_path(&mut self, path: KernelPath) -> Result<(), SoftBodyError> {
+        if !path.is_supported() {
+            return Err(SoftBodyError::UnsupportedKernel(path.name()));
+        }
+        self.kernel = path;
+        Ok(())
     }
 
     /// Replaces the settings (validated first).
@@ -110,6 +134,7 @@ impl SoftBody {
         self.forces.push(Vec4::ZERO);
         self.collides.push(true);
         self.prev.push(Vec4::ZERO);
+        self.contact.push();
         self.links.add_particle();
         ParticleId::new(self.positions.len() - 1)
     }
@@ -241,9 +266,8 @@ impl SoftBody {
         self.forces.fill(Vec4::ZERO);
     }
 
-    /// Whether a particle takes part in collision. TreeCut clears it on particles created by
-    /// a transition until the transition ends; there is no collision stage yet, so this flag
-    /// only records the contract for one.
+    /// Whether a particle takes part in collision (see [`crate::collide`]). TreeCut clears it
+    /// on particles created by a transition until the transition ends (the paper's section 3.4).
     pub fn collides(&self, p: ParticleId) -> bool {
         self.collides[p.index()]
     }
@@ -251,6 +275,56 @@ impl SoftBody {
     /// Sets the collision flag (see [`SoftBody::collides`]).
     pub fn set_collides(&mut self, p: ParticleId, collides: bool) {
         self.collides[p.index()] = collides;
+    }
+
+    /// The colliders this body collides with.
+    pub fn colliders(&self) -> &Colliders {
+        &self.colliders
+    }
+
+    /// The colliders, to add, move or remove them.
+    pub fn colliders_mut(&mut self) -> &mut Colliders {
+        &mut self.colliders
+    }
+
+    /// A particle's collision radius in metres (0: a point; the collider's thickness still
+    /// applies).
+    pub fn collision_radius(&self, p: ParticleId) -> f32 {
+        self.contact.radius[p.index()]
+    }
+
+    /// Sets a particle's collision radius (finite, >= 0).
+    pub fn set_collision_radius(
+        &mut self,
+        p: ParticleId,
+        radius: f32,
+    ) -> Result<(), SoftBodyError> {
+        let i = self.check_particle(p)?;
+        if !(radius.is_finite() && radius >= 0.0) {
+            return Err(SoftBodyError::BadCollider(
+                "collision radius must be finite and >= 0",
+            ));
+        }
+        self.contact.radius[i] = radius;
+        Ok(())
+    }
+
+    /// Whether a particle touched a collider during the last step.
+    pub fn touched(&self, p: ParticleId) -> bool {
+        self.contact.touched[p.index()]
+    }
+
+    /// Which particles touched a collider during the last step, parallel to the particles.
+    pub fn touched_all(&self) -> &[bool] {
+        &self.contact.touched
+    }
+
+    /// Adds `dv` to a free particle's velocity (an impulse per unit mass; pinned particles
+    /// ignore it).
+    pub(crate) fn add_velocity_raw(&mut self, i: usize, dv: Vec3) {
+        if self.positions[i].w > 0.0 {
+            self.velocities[i] += dv.extend(0.0);
+        }
     }
 
     /// Adds a full-weight link; see [`SoftBody::add_link_weighted`].
@@ -415,6 +489,7 @@ impl SoftBody {
         self.forces.swap_remove(i);
         self.collides.swap_remove(i);
         self.prev.swap_remove(i);
+        self.contact.swap_remove(i);
         self.anchors.retain(|a| a.particle != p);
         if p != last {
             for a in &mut self.anchors {
@@ -427,6 +502,35 @@ impl SoftBody {
         } else {
             None
         }
+    }
+
+    /// Renumbers the particles: new particle `i` is old particle `order[i]` (`order` is a
+    /// permutation of `0..particle_count`). Every per-particle value, anchor and group member
+    /// moves with its particle, and the links are re-coloured in canonical order (see
+    /// `LinkStore::renumber`); link ids do not change.
+    pub(crate) fn permute_particles(&mut self, order: &[u32]) {
+        debug_assert_eq!(order.len(), self.positions.len());
+        let mut new_of_old = vec![0u32; order.len()];
+        for (new, &old) in order.iter().enumerate() {
+            new_of_old[old as usize] = new as u32;
+        }
+        fn gather<T: Copy>(v: &mut Vec<T>, order: &[u32]) {
+            let permuted: Vec<T> = order.iter().map(|&o| v[o as usize]).collect();
+            *v = permuted;
+        }
+        gather(&mut self.positions, order);
+        gather(&mut self.velocities, order);
+        gather(&mut self.masses, order);
+        gather(&mut self.forces, order);
+        gather(&mut self.collides, order);
+        gather(&mut self.prev, order);
+        gather(&mut self.contact.radius, order);
+        gather(&mut self.contact.touched, order);
+        for a in &mut self.anchors {
+            a.particle = new_of_old[a.particle as usize];
+        }
+        self.groups.remap_particles(&new_of_old);
+        self.links.renumber(&new_of_old);
     }
 
     /// Creates a group (see [`crate::group`]) over `members` with their `masses`.
@@ -490,6 +594,10 @@ impl SoftBody {
         let inv_h2 = inv_h * inv_h;
         let damp = (-s.damping * h).exp();
         let g = s.gravity.extend(0.0);
+        let colliding = !self.colliders.is_empty();
+        if colliding {
+            self.begin_contact_step();
+        }
         for sub in 0..n {
             for (((x, v), f), prev) in self
                 .positions
@@ -519,10 +627,14 @@ impl SoftBody {
             self.links.reset_lambdas();
             self.groups.reset_lambdas();
             for _ in 0..s.iterations {
-                self.links.solve(&mut self.positions, inv_h2);
+                self.links.solve(self.kernel, &mut self.positions, inv_h2);
                 if !self.groups.is_empty() {
                     self.groups.solve(&mut self.positions, inv_h2);
                 }
+            }
+            if colliding {
+                self.colliders
+                    .project(sub, n, &mut self.positions, &self.prev, &mut self.contact);
             }
             for ((v, x), prev) in self
                 .velocities
@@ -536,6 +648,32 @@ impl SoftBody {
         for a in &mut self.anchors {
             a.start = a.target;
         }
+        self.colliders.end_step();
+    }
+
+    /// The contact broad phase for the coming step: how far a particle can get in one step
+    /// (twice its current speed plus gravity and its external force over the step, for
+    /// safety against links pulling it) bounds which particles each collider may touch.
+    fn begin_contact_step(&mut self) {
+        let dt = self.settings.dt;
+        let mut reach = 0f32;
+        for ((x, v), f) in self
+            .positions
+            .iter()
+            .zip(&self.velocities)
+            .zip(&self.forces)
+        {
+            if x.w > 0.0 {
+                let a = self.settings.gravity + f.truncate() * x.w;
+                reach = reach.max(v.truncate().length() * dt + a.length() * dt * dt);
+            }
+        }
+        self.colliders.begin_step(
+            &self.positions,
+            &self.collides,
+            &mut self.contact,
+            2.0 * reach + 1e-3,
+        );
     }
 
     #[cfg(test)]

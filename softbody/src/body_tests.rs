@@ -358,3 +358,41 @@ fn anchors_move_kinematically() {
     assert_eq!(b.position(c), target);
     assert_eq!(b.velocity(c), Vec3::ZERO);
 }
+
+/// Every kernel path this CPU supports steps a cloth to the same bits as the scalar path
+/// (tolerance zero: no path uses FMA), including while links are removed and re-weighted.
+#[test]
+fn every_kernel_path_steps_like_scalar() {
+    let (_, reference) = net(23);
+    let run = |path: KernelPath| {
+        let mut body = reference.clone();
+        body.set_kernel_path(path).unwrap();
+        assert_eq!(body.kernel_path(), path);
+        for step in 0..12 {
+            if step == 4 {
+                let ids: Vec<LinkId> = body.links().map(|l| l.id).step_by(7).collect();
+                for (k, id) in ids.into_iter().enumerate() {
+                    if k % 2 == 0 {
+                        body.remove_link(id).unwrap();
+                    } else {
+                        body.set_link_weight(id, 0.3).unwrap();
+                    }
+                }
+            }
+            body.step();
+        }
+        (bits(body.positions()), bits(body.velocities()))
+    };
+    let scalar = run(KernelPath::Scalar);
+    for path in KernelPath::supported() {
+        assert!(run(path) == scalar, "{path:?} differs from the scalar path");
+    }
+    let unsupported = KernelPath::ALL.into_iter().find(|p| !p.is_supported());
+    if let Some(p) = unsupported {
+        let mut body = reference.clone();
+        assert!(matches!(
+            body.set_kernel_path(p),
+            Err(SoftBodyError::UnsupportedKernel(_))
+        ));
+    }
+}

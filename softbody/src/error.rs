@@ -43,6 +43,15 @@ pub enum SoftBodyError {
     /// A solver setting was invalid (time step not positive, zero substeps or iterations, ...).
     #[error("invalid setting: {0}")]
     BadSetting(&'static str),
+    /// The requested link kernel path needs a CPU feature this machine lacks.
+    #[error("kernel path {0} is not supported by this CPU")]
+    UnsupportedKernel(&'static str),
+    /// A collider description or transform was invalid (negative radius, NaN transform, ...).
+    #[error("invalid collider: {0}")]
+    BadCollider(&'static str),
+    /// A collider id that was removed (or never issued by this body).
+    #[error("collider id is stale (removed, or from another body)")]
+    StaleCollider,
     /// A builder was given too few vertices (a grid needs at least 2×2).
     #[error("degenerate input: {0}")]
     Degenerate(&'static str),

@@ -174,6 +174,18 @@ impl GroupStore {
         }
     }
 
+    /// Renames every particle `p` to `new_of_old[p]` (a renumbering of all particles).
+    pub(crate) fn remap_particles(&mut self, new_of_old: &[u32]) {
+        for g in self.groups.iter_mut().filter(|g| g.live) {
+            for m in &mut g.members {
+                *m = new_of_old[*m as usize];
+            }
+            for t in &mut g.targets {
+                t.particle = new_of_old[t.particle as usize];
+            }
+        }
+    }
+
     /// Whether particle `p` takes part in any live group.
     pub(crate) fn references(&self, p: u32) -> bool {
         self.groups

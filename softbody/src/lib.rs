@@ -31,10 +31,11 @@
 //! fit on a 64-bit mask per particle: O(1), deterministic in insertion order; a particle with 64
 //! colours used sends further links to an ordered overflow batch). Batches run in colour order;
 //! inside one, no two links share a particle, so each link reads and writes only its own two
-//! particles: order inside a batch does not matter, four links are computed at once in SSE lanes,
-//! and removing a link is an O(1) swap-remove that leaves every other link computing exactly the
+//! particles: order inside a batch does not matter, a block of links is computed at once in vector
+//! lanes (16 with AVX-512, 8 with AVX2, 4 with SSE/NEON, chosen at run time: [`KernelPath`]; all
+//! paths give the same bits, as none uses FMA), and removing a link is an O(1) swap-remove that leaves every other link computing exactly the
 //! same bits (a deleted link and a link of weight 0 are indistinguishable; tested bit for bit).
-//! Links are stored in blocks of four (all fields of four links in 112 contiguous bytes). No
+//! Links are stored in blocks of sixteen (all fields of sixteen links in 384 contiguous bytes). No
 //! hash maps, no threads, no time-dependent state: the same calls give bit-identical results.
 //!
 //! # TreeCut-SoftBody
@@ -62,17 +63,26 @@
 //!
 //! Nodes in transition and all their neighbours are locked in the cut until the end, so no
 //! transition starts next to one in flight. New particles have [`SoftBody::collides`] false until
-//! their transition ends (there is no collision stage yet; the flag is the contract for one).
+//! their transition ends, when they join collision (the paper's section 3.4).
+//!
+//! # Colliders and wind
+//! [`collide`]: planes, spheres, capsules and oriented boxes with thickness and friction, static
+//! or moved by the host, projected once per substep after the links, behind a per-step broad
+//! phase. A TreeCut node's collision radius covers its children. [`wind`]: a gusty field with per-area drag and lift; a TreeCut node carries the area
+//! of the finest triangles it covers, so the total force does not depend on the cut.
 //! Pins belong to finest vertices; the node covering a pinned vertex is pinned where that vertex
 //! sits on its anchor (see [`TreeCutSoftBody::pin_vertex`]). [`TreeCutSoftBody::reconstruct`] gives
 //! every finest vertex a position (rigidly carried by its node's shape-matching rotation, blended
 //! with the neighbours' predictions in the default [`ReconstructionMode::Smooth`]), and
 //! [`reconstruction_error`] compares it with a full-resolution reference.
-#![forbid(unsafe_code)]
+// The crate's only `unsafe` is the call into the run-time selected AVX2/AVX-512 kernels, in
+// `kernel/x86.rs` (argued there); everything else is safe code.
+#![deny(unsafe_code)]
 #![warn(missing_docs)]
 
 mod body;
 mod builders;
+pub mod collide;
 mod error;
 mod group;
 mod ids;
@@ -81,14 +91,17 @@ mod links;
 mod settings;
 pub mod shape;
 mod tc;
+pub mod wind;
 
 #[cfg(test)]
 mod body_tests;
 
 pub use body::SoftBody;
 pub use builders::{GridCloth, MeshCloth, VertexMasses, distance_two_pairs};
+pub use collide::{ColliderDesc, ColliderId, Colliders, Shape, Transform};
 pub use error::SoftBodyError;
 pub use ids::{LinkId, ParticleId};
+pub use kernel::KernelPath;
 pub use links::LinkInfo;
 pub use settings::{ComplianceScaling, Material, SolverSettings};
 pub use tc::{
@@ -97,3 +110,4 @@ pub use tc::{
 };
 /// The `treecut` crate this one builds on, re-exported so hosts use the same version.
 pub use treecut;
+pub use wind::{Wind, WindError, WindField, grid_triangles};

@@ -19,7 +19,7 @@
 //! whose order matters, removes in order (O(overflow length)), as the paper does.
 
 use crate::ids::{LinkId, ParticleId};
-use crate::kernel::{self, Block};
+use crate::kernel::{self, Block, KernelPath, LANES};
 use glam::Vec4;
 
 /// Number of colours tracked by the per-particle masks.
@@ -29,28 +29,31 @@ const OVERFLOW: u32 = COLOURS as u32;
 /// Slot marker of a free link id.
 const FREE: u32 = u32::MAX;
 
-/// A batch of links in blocks of four (see [`Block`]); lanes past `len` are unused.
+/// A batch of links in blocks of [`LANES`] (see [`Block`]); lanes past `len` are unused. The
+/// links' stable ids sit beside the blocks, out of the kernel's way.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Batch {
     blocks: Vec<Block>,
+    ids: Vec<[u32; LANES]>,
     len: usize,
 }
 
 impl Batch {
     fn push(&mut self, a: u32, b: u32, rest: f32, compliance: f32, weight: f32, id: LinkId) -> u32 {
         let i = self.len;
-        if i % 4 == 0 {
+        if i.is_multiple_of(LANES) {
             self.blocks.push(Block::default());
+            self.ids.push([0; LANES]);
         }
-        let blk = &mut self.blocks[i / 4];
-        let k = i % 4;
+        let blk = &mut self.blocks[i / LANES];
+        let k = i % LANES;
         blk.a[k] = a;
         blk.b[k] = b;
         blk.rest[k] = rest;
         blk.compliance[k] = compliance;
         blk.weight[k] = weight;
         blk.lambda[k] = 0.0;
-        blk.id[k] = id.raw();
+        self.ids[i / LANES][k] = id.raw();
         self.len += 1;
         i as u32
     }
@@ -58,29 +61,38 @@ impl Batch {
     fn swap_remove(&mut self, i: usize) -> Option<LinkId> {
         let last = self.len - 1;
         let moved = if i != last {
-            let src = self.blocks[last / 4];
-            self.blocks[i / 4].copy_lane(i % 4, &src, last % 4);
-            Some(LinkId::from_raw(src.id[last % 4]))
+            let src = self.blocks[last / LANES];
+            self.blocks[i / LANES].copy_lane(i % LANES, &src, last % LANES);
+            let id = self.id(last);
+            self.ids[i / LANES][i % LANES] = id;
+            Some(LinkId::from_raw(id))
         } else {
             None
         };
         self.len = last;
-        if last % 4 == 0 {
+        if last.is_multiple_of(LANES) {
             self.blocks.pop();
+            self.ids.pop();
         }
         moved
     }
     /// Removes entry `i` keeping the order of the rest.
     fn ordered_remove(&mut self, i: usize) {
         for k in i..self.len - 1 {
-            let src = self.blocks[(k + 1) / 4];
-            self.blocks[k / 4].copy_lane(k % 4, &src, (k + 1) % 4);
+            let src = self.blocks[(k + 1) / LANES];
+            self.blocks[k / LANES].copy_lane(k % LANES, &src, (k + 1) % LANES);
+            self.ids[k / LANES][k % LANES] = self.id(k + 1);
         }
         self.swap_remove(self.len - 1);
     }
     #[inline]
     fn lane(&self, i: usize) -> (&Block, usize) {
-        (&self.blocks[i / 4], i % 4)
+        (&self.blocks[i / LANES], i % LANES)
+    }
+    /// Raw id of entry `i`.
+    #[inline]
+    fn id(&self, i: usize) -> u32 {
+        self.ids[i / LANES][i % LANES]
     }
     pub(crate) fn len(&self) -> usize {
         self.len
@@ -88,7 +100,7 @@ impl Batch {
     fn info(&self, i: usize) -> LinkInfo {
         let (blk, k) = self.lane(i);
         LinkInfo {
-            id: LinkId::from_raw(blk.id[k]),
+            id: LinkId::from_raw(self.id(i)),
             a: ParticleId::from_raw(blk.a[k]),
             b: ParticleId::from_raw(blk.b[k]),
             rest: blk.rest[k],
@@ -174,6 +186,52 @@ impl LinkStore {
                 LinkId::new(self.slots.len() - 1)
             }
         };
+        self.insert(id, a, b, rest, compliance, weight);
+        id
+    }
+
+    /// Renames every particle `p` to `new_of_old[p]` and rebuilds the batches: every link
+    /// keeps its id, ends (renamed), rest length, compliance and weight, and the links are
+    /// coloured again in canonical order (sorted by their renamed `(smaller, larger)` ends, the
+    /// order the builders use), so the result is the store a builder would make for the
+    /// renumbered particles. Multipliers are not kept (they restart at every substep).
+    pub(crate) fn renumber(&mut self, new_of_old: &[u32]) {
+        let mut links: Vec<(u32, u32, LinkInfo)> = self
+            .iter()
+            .map(|l| {
+                let (a, b) = (new_of_old[l.a.index()], new_of_old[l.b.index()]);
+                (a.min(b), a.max(b), l)
+            })
+            .collect();
+        links.sort_unstable_by_key(|&(lo, hi, l)| (lo, hi, l.id.raw()));
+        let particles = self.colours.len();
+        self.batches.clear();
+        self.overflow = Batch::default();
+        self.colours.clear();
+        self.colours.resize(particles, 0);
+        for list in &mut self.incident {
+            list.clear();
+        }
+        self.slots.fill(Slot {
+            batch: FREE,
+            index: 0,
+        });
+        self.len = 0;
+        for &(_, _, l) in &links {
+            let (a, b) = (new_of_old[l.a.index()], new_of_old[l.b.index()]);
+            self.insert(l.id, a, b, l.rest, l.compliance, l.weight);
+        }
+        // Free ids, the smallest handed out first (as from a fresh store).
+        self.free.clear();
+        self.free.extend(
+            (0..self.slots.len() as u32)
+                .rev()
+                .filter(|&i| self.slots[i as usize].batch == FREE),
+        );
+    }
+
+    /// Colours and stores a link under a free id.
+    fn insert(&mut self, id: LinkId, a: u32, b: u32, rest: f32, compliance: f32, weight: f32) {
         let used = self.colours[a as usize] | self.colours[b as usize];
         let colour = (!used).trailing_zeros();
         let slot = if (colour as usize) < COLOURS {
@@ -200,7 +258,6 @@ impl LinkStore {
         self.incident[a as usize].push((id, b));
         self.incident[b as usize].push((id, a));
         self.len += 1;
-        id
     }
 
     /// Whether `id` names a live link.
@@ -235,8 +292,7 @@ impl LinkStore {
         if slot.batch == OVERFLOW {
             self.overflow.ordered_remove(i);
             for k in i..self.overflow.len() {
-                let (blk, lane) = self.overflow.lane(k);
-                self.slots[blk.id[lane] as usize].index = k as u32;
+                self.slots[self.overflow.id(k) as usize].index = k as u32;
             }
         } else {
             let bit = 1u64 << slot.batch;
@@ -272,8 +328,7 @@ impl LinkStore {
             if slot.batch == OVERFLOW {
                 self.overflow.ordered_remove(i);
                 for k in i..self.overflow.len() {
-                    let (blk, lane) = self.overflow.lane(k);
-                    self.slots[blk.id[lane] as usize].index = k as u32;
+                    self.slots[self.overflow.id(k) as usize].index = k as u32;
                 }
             } else {
                 let bit = 1u64 << slot.batch;
@@ -316,7 +371,7 @@ impl LinkStore {
     pub(crate) fn set_weight(&mut self, id: LinkId, weight: f32) {
         let slot = self.slots[id.index()];
         let i = slot.index as usize;
-        self.batch_mut(slot.batch).blocks[i / 4].weight[i % 4] = weight;
+        self.batch_mut(slot.batch).blocks[i / LANES].weight[i % LANES] = weight;
     }
 
     /// Removes particle `p` (which must have no links left) by moving particle `last` into
@@ -333,8 +388,8 @@ impl LinkStore {
                 }
                 let slot = self.slots[id.index()];
                 let i = slot.index as usize;
-                let blk = &mut self.batch_mut(slot.batch).blocks[i / 4];
-                let k = i % 4;
+                let blk = &mut self.batch_mut(slot.batch).blocks[i / LANES];
+                let k = i % LANES;
                 if blk.a[k] == last {
                     blk.a[k] = p;
                 }
@@ -361,15 +416,15 @@ impl LinkStore {
             .chain(std::iter::once(&mut self.overflow))
         {
             for blk in &mut bt.blocks {
-                blk.lambda = [0.0; 4];
+                blk.lambda = [0.0; LANES];
             }
         }
     }
 
     /// One sweep over all links: colour batches in order, then the ordered overflow batch.
-    pub(crate) fn solve(&mut self, p: &mut [Vec4], inv_h2: f32) {
+    pub(crate) fn solve(&mut self, path: KernelPath, p: &mut [Vec4], inv_h2: f32) {
         for bt in &mut self.batches {
-            kernel::solve_batch(p, &mut bt.blocks, bt.len, inv_h2);
+            kernel::solve_batch(path, p, &mut bt.blocks, bt.len, inv_h2);
         }
         if self.overflow.len > 0 {
             kernel::solve_ordered(p, &mut self.overflow.blocks, self.overflow.len, inv_h2);
@@ -395,7 +450,8 @@ impl LinkStore {
         let mut count = 0;
         let mut colours = vec![0u64; self.colours.len()];
         for (c, bt) in self.batches.iter().enumerate() {
-            assert_eq!(bt.blocks.len(), bt.len.div_ceil(4));
+            assert_eq!(bt.blocks.len(), bt.len.div_ceil(LANES));
+            assert_eq!(bt.ids.len(), bt.blocks.len());
             for i in 0..bt.len() {
                 let l = bt.info(i);
                 let s = self.slots[l.id.index()];

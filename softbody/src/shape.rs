@@ -17,7 +17,7 @@ use glam::{Mat3, Quat, Vec3};
 /// Maximum number of iterations.
 const MAX_ITERATIONS: u32 = 24;
 /// Stop when the correction angle (radians) drops below this.
-const TOLERANCE: f32 = 1e-6;
+const TOLERANCE: f32 = 1e-5;
 
 /// Adds one pair to the covariance `Σ q rᵀ` of current offsets `q` and rest offsets `r`.
 #[inline]
@@ -28,21 +28,32 @@ pub fn accumulate(a: &mut Mat3, current: Vec3, rest: Vec3) {
 }
 
 /// The rotation part of `a` (the best rotation mapping rest offsets onto current ones),
-/// iterated from `start` (pass the previous estimate: one or two iterations in steady use).
+/// iterated from `start` (pass the previous estimate).
+///
+/// Each iteration rotates the estimate `R` by `ω`. With `P = A Rᵀ`, the objective
+/// `tr(Rᵀ A)` has gradient `g = (P_zy − P_yz, P_xz − P_zx, P_yx − P_xy)` (Müller et al.'s
+/// `Σ_k R_k × A_k`) and Hessian `H = tr(P) I − sym(P)` in `ω`; where `H` is positive definite
+/// (near the optimum, for any neighbourhood of rank ≥ 2, planar ones included) the step is
+/// Newton's `ω = H⁻¹ g`, which converges quadratically; elsewhere (far from the optimum, or a
+/// collinear neighbourhood, whose twist `H` leaves undetermined) it is Müller et al.'s
+/// `ω = g / |tr P|`, which never leaves the rotation group and is robust. Müller's step alone
+/// converges linearly at rate ½ on planar neighbourhoods: warm-started, it took about 9.5
+/// iterations per call in the reconstruction of a swinging net, Newton's about 2.
 pub fn rotation_of(a: &Mat3, start: Quat) -> Quat {
+    let scale = 1e-12
+        * (1.0 + a.x_axis.length_squared() + a.y_axis.length_squared() + a.z_axis.length_squared())
+            .sqrt();
     let mut q = start;
     for _ in 0..MAX_ITERATIONS {
         let r = Mat3::from_quat(q);
-        let num = r.x_axis.cross(a.x_axis) + r.y_axis.cross(a.y_axis) + r.z_axis.cross(a.z_axis);
-        let den = (r.x_axis.dot(a.x_axis) + r.y_axis.dot(a.y_axis) + r.z_axis.dot(a.z_axis)).abs();
-        let omega = num
-            / (den
-                + 1e-12
-                    * (1.0
-                        + a.x_axis.length_squared()
-                        + a.y_axis.length_squared()
-                        + a.z_axis.length_squared())
-                    .sqrt());
+        let p = *a * r.transpose();
+        let g = Vec3::new(
+            p.y_axis.z - p.z_axis.y,
+            p.z_axis.x - p.x_axis.z,
+            p.x_axis.y - p.y_axis.x,
+        );
+        let trace = p.x_axis.x + p.y_axis.y + p.z_axis.z;
+        let omega = newton_step(&p, trace, g).unwrap_or(g / (trace.abs() + scale));
         let angle = omega.length();
         if angle.is_nan() || angle < TOLERANCE {
             // Converged, or a degenerate (zero / non-finite) covariance: keep the estimate.
@@ -51,6 +62,28 @@ pub fn rotation_of(a: &Mat3, start: Quat) -> Quat {
         q = (Quat::from_axis_angle(omega / angle, angle) * q).normalize();
     }
     q
+}
+
+/// Newton's step `H⁻¹ g` with `H = tr(P) I − sym(P)`, if `H` is safely positive definite and
+/// the step small (under 0.5 rad: far from the optimum the quadratic model is not trusted).
+#[inline]
+fn newton_step(p: &Mat3, trace: f32, g: Vec3) -> Option<Vec3> {
+    let sym = |i: usize, j: usize| 0.5 * (p.col(j)[i] + p.col(i)[j]);
+    let h = Mat3::from_cols(
+        Vec3::new(trace - sym(0, 0), -sym(1, 0), -sym(2, 0)),
+        Vec3::new(-sym(0, 1), trace - sym(1, 1), -sym(2, 1)),
+        Vec3::new(-sym(0, 2), -sym(1, 2), trace - sym(2, 2)),
+    );
+    // Leading minors positive, relative to the scale of H: positive definite, well conditioned.
+    let eps = 1e-4 * trace.abs();
+    let m1 = h.x_axis.x;
+    let m2 = h.x_axis.x * h.y_axis.y - h.y_axis.x * h.x_axis.y;
+    let det = h.determinant();
+    if !(m1 > eps && m2 > eps * eps && det > eps * eps * eps) {
+        return None;
+    }
+    let omega = h.inverse() * g;
+    (omega.is_finite() && omega.length_squared() < 0.25).then_some(omega)
 }
 
 #[cfg(test)]

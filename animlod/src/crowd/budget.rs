@@ -43,7 +43,7 @@ impl Crowd {
             let row = step_row(
                 &self.tables[c.clip.index()],
                 slots,
-                clip.sub_priorities().segment_count(),
+                self.rig.priorities[c.clip.index()].segment_count(),
                 c,
                 buf,
             );

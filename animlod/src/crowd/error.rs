@@ -6,8 +6,8 @@ use salience::View;
 use super::*;
 
 impl Crowd {
-    /// Pose error of one character against full-rate evaluation at its current time (joints only;
-    /// pixels through `view`).
+    /// Pose error of one character against full-rate evaluation at its current time (every joint at
+    /// its origin and tip; pixels through `view`).
     pub fn pose_error(&self, id: CharacterId, view: &View) -> Result<PoseError, CrowdError> {
         let d = self.dense(id)?;
         let mut sum = ErrorSum::default();
@@ -49,6 +49,6 @@ impl Crowd {
         clip.sample_locals(c.time, &mut Vec::new(), &mut trs, locals);
         let skeleton = self.rig.skeleton();
         skeleton.model_matrices(locals, reference);
-        sum.add_pose(skeleton.joint_flags(), models, reference, c.position, view);
+        sum.add_pose(skeleton, models, reference, c.position, view);
     }
 }

@@ -97,13 +97,22 @@ fn concat_moving(parents: &[u32], moving: &[u32], locals: &[Affine3A], models: &
 }
 
 impl Crowd {
+    /// Animated bones over every character (what LOD off interpolates per frame).
+    fn animated_total(&self) -> u64 {
+        self.chars
+            .iter()
+            .map(|c| self.rig.clips()[c.clip.index()].animated.len() as u64)
+            .sum()
+    }
+
     /// Evaluates a character's full pose at its current time and stamps every bone as updated.
     pub(super) fn evaluate_full(&mut self, d: usize) {
         let span = self.span(d);
         let clip = &self.rig.clips()[self.chars[d].clip.index()];
-        let seg = clip.sub_priorities().segment_at(self.chars[d].time) as u32;
+        let seg =
+            self.rig.priorities[self.chars[d].clip.index()].segment_at(self.chars[d].time) as u32;
         let c = &mut self.chars[d];
-        (c.segment, c.prev_segment, c.wrapped) = (seg, seg, false);
+        (c.segment, c.prev_segment, c.wrapped, c.changed) = (seg, seg, false, true);
         let c = *c;
         let locals = &mut self.locals[span.clone()];
         let s = &mut self.scratch;
@@ -128,12 +137,20 @@ impl Crowd {
         let (rig, stride) = (&self.rig, self.stride);
         for (d, c) in self.chars.iter_mut().enumerate() {
             let clip = &rig.clips()[c.clip.index()];
-            let step = dt * c.speed;
+            let mut step = dt * c.speed;
             let before = c.time;
-            c.time = clip.wrap_time(c.time + step);
-            c.wrapped = c.time < before;
+            if c.once {
+                // Stops on the last pose: only the time actually played counts as a step (a
+                // finished character accumulates no drift).
+                c.time = (c.time + step).min(clip.duration());
+                step = c.time - before;
+                c.wrapped = false;
+            } else {
+                c.time = clip.wrap_time(c.time + step);
+                c.wrapped = c.time < before;
+            }
             c.prev_segment = c.segment;
-            c.segment = clip.sub_priorities().segment_at(c.time) as u32;
+            c.segment = rig.priorities[c.clip.index()].segment_at(c.time) as u32;
             c.clock += step;
             if c.clock > CLOCK_REBASE {
                 let shift = 0.5 * CLOCK_REBASE;
@@ -164,9 +181,13 @@ impl Crowd {
             };
         }
         let budget = match lod {
+            // A budget that covers every animated bone takes LOD off's path (one block pass per
+            // character, no scores): the budget mode never does more work than LOD off.
             LodMode::Budget {
                 bone_updates_per_frame,
-            } => Some(self.budget_cut(bone_updates_per_frame)),
+            } if (bone_updates_per_frame as u64) < self.animated_total() => {
+                Some(self.budget_cut(bone_updates_per_frame))
+            }
             _ => None,
         };
         let mut stats = FrameStats::default();
@@ -182,7 +203,9 @@ impl Crowd {
         self.frame = self.frame.wrapping_add(1);
         let mut d = start;
         for _ in 0..len {
-            stats += self.advance_one(d, budget.map(|b| b.0), &mut partial_left);
+            let st = self.advance_one(d, budget.map(|b| b.0), &mut partial_left);
+            self.chars[d].changed = st.bones_concatenated > 0;
+            stats += st;
             d += 1;
             if d == len {
                 d = 0;
@@ -227,23 +250,27 @@ impl Crowd {
         }
         let mut count = slots;
         if !full {
-            let sub = clip.sub_priorities();
+            let sub = &rig.priorities[c.clip.index()];
             let go = &mut s.go[..slots];
             let last = &mut last[..slots];
             count = match budget {
                 None if error_bound.is_some() => {
                     let rates = step_row(&sub.hold_max, slots, sub.segment_count(), &c, &mut s.row);
                     let tol = error_bound.unwrap_or(f32::INFINITY);
-                    schedule_error(
+                    ErrorBoundJob {
                         rates,
-                        c.step,
-                        c.near_ppu,
-                        tol,
-                        &mut drift[..slots],
-                        c.clock,
+                        jumps: if c.wrapped { &sub.wrap_jump } else { &[] },
+                        ancestors: &clip.ancestor_slot,
+                        step: c.step,
+                        pixels_per_unit: c.near_ppu,
+                        tolerance_px: tol,
+                        clock: c.clock,
+                        drift: &mut drift[..slots],
                         last,
                         go,
-                    )
+                        chain: &mut s.chain[..slots],
+                    }
+                    .run()
                 }
                 None => {
                     let row = step_row(
@@ -292,7 +319,7 @@ impl Crowd {
         }
         st.bones_interpolated = count as u64;
         st.bones_held = animated - count as u64;
-        s.trs.prepare(clip);
+        s.trs.prepare(clip.base_pose());
         clip.locate_all(c.time, &mut s.cursors);
         if full {
             clip.sample(&s.cursors, &mut s.trs);

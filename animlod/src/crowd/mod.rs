@@ -23,7 +23,7 @@ use crate::lod::{LodMode, omega_from_distance, omega_from_pixels};
 use crate::pose_error::{ErrorSum, PoseError};
 use crate::priority::PriorityWeights;
 use crate::rig::Rig;
-use crate::scheduler::{SchedulerParams, schedule, schedule_error};
+use crate::scheduler::{ErrorBoundJob, SchedulerParams, schedule};
 use crate::skeleton::NO_PARENT;
 use crate::transform::concat;
 
@@ -83,6 +83,8 @@ struct Character {
     prev_segment: u32,
     /// Whether the last step wrapped around the end of the clip.
     wrapped: bool,
+    /// Plays the clip once and stops on its last pose (instead of looping).
+    once: bool,
     speed: f32,
     /// Playback seconds elapsed (holds are timed on it), kept below [`CLOCK_REBASE`] by shifting
     /// it and the last-update stamps together, so f32 keeps sub-millisecond resolution.
@@ -93,6 +95,8 @@ struct Character {
     step: f32,
     /// Pixels per unit at the nearest visible point of the bounding sphere (0: invisible).
     near_ppu: f32,
+    /// Whether any model matrix changed in the last advance (or evaluation).
+    changed: bool,
 }
 
 /// Scratch reused every frame (no allocation in the frame loop once warmed up).
@@ -106,6 +110,9 @@ struct Scratch {
     go: Vec<u8>,
     /// Per animated-bone slot: priorities or rates max-combined over the segments a step crossed.
     row: Vec<f32>,
+    /// Error-bound mode: per animated-bone slot, the summed drift down its chain of ancestors.
+    chain: Vec<f32>,
+
     /// The slots that interpolate this frame (first entries).
     updated: Vec<u32>,
     /// The bones whose model matrix is recomputed this frame (first entries).
@@ -187,6 +194,7 @@ impl Crowd {
                 dirty: vec![0; bones + 1],
                 updated: vec![0; bones],
                 list: vec![0; bones],
+                chain: vec![0.0; bones],
                 ..Scratch::default()
             },
         };
@@ -258,12 +266,14 @@ impl Crowd {
             segment: 0,
             prev_segment: 0,
             wrapped: false,
+            once: false,
             speed: 1.0,
             clock: 0.0,
             omega: 1.0,
             size_px: 0.0,
             step: 0.0,
             near_ppu: 0.0,
+            changed: true,
         });
         let n = self.stride;
         self.locals
@@ -330,18 +340,35 @@ impl Crowd {
         Ok(self.chars[self.dense(id)?].clip)
     }
 
-    /// Jumps a character to playback time `time` (wrapped into the clip); the pose is
-    /// re-evaluated at once.
+    /// Jumps a character to playback time `time` (wrapped into the clip, or clamped to it for a
+    /// character that plays its clip once); the pose is re-evaluated at once.
     pub fn set_time(&mut self, id: CharacterId, time: f32) -> Result<(), CrowdError> {
         if !time.is_finite() {
             return Err(invalid("time", "must be finite"));
         }
         let d = self.dense(id)?;
         let clip = self.chars[d].clip;
-        let wrapped = self.rig.clips()[clip.index()].wrap_time(time);
-        self.chars[d].time = wrapped;
+        let clip = &self.rig.clips()[clip.index()];
+        self.chars[d].time = if self.chars[d].once {
+            time.clamp(0.0, clip.duration())
+        } else {
+            clip.wrap_time(time)
+        };
         self.evaluate_full(d);
         Ok(())
+    }
+
+    /// Whether a character plays its clip once, stopping on the last pose (`true`), or loops it
+    /// (`false`, the default). Switching to play-once past the end holds the last pose.
+    pub fn set_play_once(&mut self, id: CharacterId, once: bool) -> Result<(), CrowdError> {
+        let d = self.dense(id)?;
+        self.chars[d].once = once;
+        Ok(())
+    }
+
+    /// Whether a character plays its clip once (see [`Crowd::set_play_once`]).
+    pub fn play_once(&self, id: CharacterId) -> Result<bool, CrowdError> {
+        Ok(self.chars[self.dense(id)?].once)
     }
 
     /// A character's playback time within its clip.
@@ -425,7 +452,7 @@ impl Crowd {
     pub fn priorities(&self, clip: ClipId, segment: usize) -> Result<&[f32], CrowdError> {
         let c = self.clip_ref(clip)?;
         let slots = c.animated_bone_count();
-        if segment >= c.sub_priorities().segment_count() {
+        if segment >= self.rig.priorities[clip.index()].segment_count() {
             return Err(invalid("segment", "out of range"));
         }
         Ok(&self.tables[clip.index()][segment * slots..(segment + 1) * slots])
@@ -453,14 +480,23 @@ impl Crowd {
             .rig
             .clips()
             .iter()
-            .map(|c| match self.source {
+            .zip(&self.rig.priorities)
+            .map(|(c, p)| match self.source {
                 PrioritySource::Factors => {
                     let user: Vec<f32> = c.animated.iter().map(|&b| norm[b as usize]).collect();
-                    c.sub_priorities().combine(&self.weights, &user)
+                    p.combine(&self.weights, &user)
                 }
-                PrioritySource::HoldError => c.sub_priorities().measured(),
+                PrioritySource::HoldError => p.measured(),
             })
             .collect();
+    }
+
+    /// Whether a character's pose changed in the last [`Crowd::advance`] (or since it was
+    /// added, moved to another clip or time). `false` means every bone held: its model
+    /// matrices, skinning palette and skinned vertices from the previous frame are still exact,
+    /// so a host reuses them instead of recomputing.
+    pub fn pose_changed(&self, id: CharacterId) -> Result<bool, CrowdError> {
+        Ok(self.chars[self.dense(id)?].changed)
     }
 
     /// Model-space matrices of a character's bones (skeleton model space; add the character's
@@ -502,3 +538,7 @@ mod frame;
 #[cfg(test)]
 #[path = "../crowd_tests.rs"]
 mod tests;
+
+#[cfg(test)]
+#[path = "../crowd_error_tests.rs"]
+mod error_tests;

@@ -11,6 +11,7 @@ use salience::View;
 use softbody::{DrawLink, TreeCutSettings, TreeCutSoftBody};
 use treecut::{GridSpec, Hierarchy, NodeId, Op};
 
+use super::contact::ContactMemory;
 use super::error::ClothError;
 use super::feedback::{Feedback, FeedbackSettings, node_radii};
 
@@ -66,6 +67,8 @@ pub struct AdaptiveCloth {
     /// Wall time and count of the steps since the controller's last update.
     interval_seconds: f64,
     interval_steps: u32,
+    /// Which nodes touched a collider since the last evaluation.
+    contact: ContactMemory,
 }
 
 const OP_REFINE: u8 = 1;
@@ -96,6 +99,7 @@ impl AdaptiveCloth {
             stats: ClothStats::default(),
             interval_seconds: 0.0,
             interval_steps: 0,
+            contact: ContactMemory::default(),
         })
     }
 
@@ -109,7 +113,11 @@ impl AdaptiveCloth {
         let h = Hierarchy::grid(spec)?;
         let level = level.min(h.level_count().saturating_sub(1));
         let cut = treecut::Cut::uniform(&h, level);
-        AdaptiveCloth::new(h, cut, settings, spec.u.cross(spec.v))
+        let mut cloth = AdaptiveCloth::new(h, cut, settings, spec.u.cross(spec.v))?;
+        cloth
+            .body
+            .set_surface(&softbody::grid_triangles(spec.cols, spec.rows))?;
+        Ok(cloth)
     }
 
     /// A cloth from the host's own triangle mesh (rest positions, triangles, optional masses
@@ -129,7 +137,9 @@ impl AdaptiveCloth {
             normal += (b - a).cross(c - a);
         }
         let cut = treecut::Cut::finest(&h);
-        AdaptiveCloth::new(h, cut, settings, normal)
+        let mut cloth = AdaptiveCloth::new(h, cut, settings, normal)?;
+        cloth.body.set_surface(triangles)?;
+        Ok(cloth)
     }
 
     /// The TreeCut soft body (particles, links, cut, hierarchy).
@@ -244,6 +254,7 @@ impl AdaptiveCloth {
             eval_seconds = Some(t.elapsed().as_secs_f64());
         }
         self.body.step();
+        self.contact.after_step(&self.body);
         self.stats.steps += 1;
         let seconds = start.elapsed().as_secs_f64();
         self.stats.last_step_seconds = seconds;
@@ -273,6 +284,8 @@ impl AdaptiveCloth {
             view,
             self.body.settings().solver.dt,
         )?;
+        self.contact
+            .raise_priorities(&self.body, &mut f.priorities, view);
         let h = self.body.hierarchy_arc().clone();
         let budget = f.node_budget(h.vertex_count());
         if !matches!(
@@ -339,6 +352,14 @@ impl AdaptiveCloth {
     /// Links now (plain and group links).
     pub fn link_count(&self) -> usize {
         self.body.link_count() + self.body.group_link_count()
+    }
+
+    pub(crate) fn contact(&self) -> &ContactMemory {
+        &self.contact
+    }
+
+    pub(crate) fn contact_mut(&mut self) -> &mut ContactMemory {
+        &mut self.contact
     }
 
     /// Refine/coarse transitions being blended now (the paper's "interpolations").

@@ -29,6 +29,16 @@ pub enum ClothError {
         /// What is wrong with it.
         reason: &'static str,
     },
+    /// A collider, collision radius or its transform was refused (negative radius, NaN
+    /// transform, stale collider id, ...).
+    #[error("collider: {0}")]
+    Collider(#[from] softbody::SoftBodyError),
+    /// The wind field was refused.
+    #[error("wind: {0}")]
+    Wind(#[from] softbody::WindError),
+    /// The character a cloth is worn by refused (stale character id, ...).
+    #[error("character: {0}")]
+    Crowd(#[from] animlod::CrowdError),
     /// A buffer has the wrong length.
     #[error("buffer `{what}` holds {got} entries, {expected} needed")]
     BufferLength {

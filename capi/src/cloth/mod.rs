@@ -3,13 +3,17 @@
 //! experiment measured against a full-resolution reference.
 
 mod adaptive;
+mod contact;
 mod controller;
 mod error;
 mod feedback;
 #[cfg(test)]
 mod tests;
+mod worn;
 
 pub use adaptive::{AdaptiveCloth, ClothStats, UNDO_WINDOW_STEPS};
+pub use contact::ContactSettings;
 pub use controller::{ControllerSettings, TimeController};
 pub use error::ClothError;
 pub use feedback::{ClothBudget, FeedbackSettings, PriorityModel, compression_nodes};
+pub use worn::BoneAttachments;

@@ -92,7 +92,7 @@ pub unsafe extern "C" fn slod_rig_load_file(
         if out_rig.is_null() {
             return Err(FfiError::Null("out_rig"));
         }
-        let rig = Rig::from_gltf_path(path).map_err(import_error)?;
+        let rig = animlod::build::import_path(path).map_err(import_error)?;
         let id = insert(world, rig);
         // SAFETY: checked non-NULL; valid for a write per the caller contract.
         unsafe { write_out(out_rig, id, "out_rig") }
@@ -130,7 +130,7 @@ pub unsafe extern "C" fn slod_rig_load_memory(
         if out_rig.is_null() {
             return Err(FfiError::Null("out_rig"));
         }
-        let rig = Rig::from_gltf_slice(bytes, None).map_err(import_error)?;
+        let rig = animlod::build::import_slice(bytes, None).map_err(import_error)?;
         let id = insert(world, rig);
         // SAFETY: checked non-NULL; valid for a write per the caller contract.
         unsafe { write_out(out_rig, id, "out_rig") }

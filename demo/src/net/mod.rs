@@ -15,7 +15,6 @@ use slod_experiments::net::{NetConfig, NetReport, run_net};
 
 use crate::cli::NetOptions;
 use crate::error::DemoError;
-use crate::paper::PEER_BULLET_65;
 use crate::progress::Progress;
 
 pub(crate) use ops::Table1;
@@ -90,7 +89,7 @@ impl NetPlan {
                 feedback_warmup: if quick { 10 } else { 60 },
                 feedback_steps: if quick { 10 } else { 120 },
             },
-            bullet_size: if quick { 17 } else { PEER_BULLET_65.size },
+            bullet_size: if quick { 17 } else { crate::peer::BULLET_SIZE },
             config,
         })
     }

@@ -5,7 +5,7 @@ use serde::Serialize;
 use slod_experiments::net::{NetConfig, NetReport, NetRun, NetRunKind};
 
 use super::{BulletLike, Figure5, NetPlan, Table1};
-use crate::paper::PeerBullet;
+use crate::peer::PeerBullet;
 
 /// The configuration as recorded in the report.
 #[derive(Clone, Debug, Serialize)]
@@ -117,14 +117,14 @@ pub(crate) struct RunReport {
     pub(crate) ms_per_step_settled: Option<f64>,
 }
 
-/// One line of Table 2: ours, the paper's or a documented peer's.
+/// One line of Table 2: ours, the paper's or Bullet's (measured on this host).
 #[derive(Clone, Debug, Serialize)]
 pub(crate) struct Table2Row {
     /// The method.
     pub(crate) method: String,
     /// The compression label.
     pub(crate) compression: String,
-    /// `ours`, `paper` or `documented peer`.
+    /// `ours`, `paper` or `peer` (Bullet measured on this host).
     pub(crate) source: &'static str,
     /// Node count N (null when not known).
     pub(crate) nodes: Option<f64>,
@@ -148,7 +148,7 @@ pub(crate) struct Table2 {
     pub(crate) rows: Vec<Table2Row>,
     /// Our Bullet-like plain cloth at Bullet's settings.
     pub(crate) bullet_like: BulletLike,
-    /// The documented Bullet measurement it is compared with.
+    /// Bullet measured on this host (or how to measure it).
     pub(crate) peer_bullet: PeerBullet,
     /// The machine of the paper's rows.
     pub(crate) paper_machine: &'static str,

@@ -25,6 +25,10 @@ mod pins;
 #[cfg(test)]
 mod query_tests;
 mod reconstruct;
+mod renumber;
+mod surface;
+#[cfg(test)]
+mod surface_tests;
 #[cfg(test)]
 mod tests;
 
@@ -103,6 +107,9 @@ pub enum TreeCutError {
         /// Number of vertices.
         count: usize,
     },
+    /// Wind needs the cloth's triangles first ([`TreeCutSoftBody::set_surface`]).
+    #[error("wind needs the cloth's triangles: call set_surface first")]
+    NoSurface,
     /// An output buffer has the wrong length.
     #[error("buffer holds {got} entries, {expected} needed")]
     BufferLength {
@@ -214,6 +221,11 @@ pub struct TreeCutSoftBody {
     spare: Vec<Transition>,
     pins: pins::Pins,
     scratch: Scratch,
+    /// Particles added or removed since the last spatial renumbering (module `renumber`).
+    churn: u32,
+    /// Whether `step` renumbers by itself.
+    auto_renumber: bool,
+    surface: surface::Surface,
 }
 
 impl TreeCutSoftBody {
@@ -273,6 +285,10 @@ impl TreeCutSoftBody {
         }
         let n_nodes = h.len();
         let n_vertices = h.vertex_count();
+        let surface = surface::Surface::new(h);
+        for (p, n) in particle_node.iter().enumerate() {
+            body.set_collision_radius(ParticleId::new(p), surface.radius[n.index()])?;
+        }
         Ok(Self {
             hierarchy,
             cut,
@@ -286,6 +302,9 @@ impl TreeCutSoftBody {
             spare: Vec::new(),
             pins: pins::Pins::new(n_nodes, n_vertices),
             scratch: Scratch::default(),
+            churn: 0,
+            auto_renumber: true,
+            surface,
         })
     }
 
@@ -471,12 +490,15 @@ impl TreeCutSoftBody {
     }
 
     /// One frame: advance blend weights, step the solver, end the transitions whose blend is
-    /// complete (in the order they began).
+    /// complete (in the order they began), and renumber the particles spatially when enough
+    /// have come and gone (see [`TreeCutSoftBody::renumber_particles`]).
     pub fn step(&mut self) {
         self.update_pins();
         self.advance_blends();
+        self.prepare_surface();
         self.body.step();
         self.end_finished();
+        self.renumber_if_scattered();
     }
 
     /// Advances every transition's blend by one step and sets the link weights accordingly
@@ -563,6 +585,8 @@ impl TreeCutSoftBody {
         };
         self.node_particle[node.index()] = p.raw();
         self.particle_node.push(node);
+        self.churn += 1;
+        self.init_particle_contact(p.raw());
         p.raw()
     }
 
@@ -577,6 +601,7 @@ impl TreeCutSoftBody {
             self.node_particle[moved_node.index()] = p;
         }
         self.particle_node.pop();
+        self.churn += 1;
     }
 
     /// Checks internal consistency (tests).

@@ -8,10 +8,13 @@
 //! * [`ReconstructionMode::Rigid`]: `x_v = x_j + R_j (rest_v − rest_j)` — each node carries its
 //!   vertices as a rigid patch. Exact at the finest cut; leaves small cracks between patches.
 //! * [`ReconstructionMode::Smooth`]: the rigid predictions of the covering particle and its
-//!   linked neighbours are blended with weights `(1 − (d/s_k)²)²` of the rest distance `d`
-//!   from neighbour `k` to the vertex, where `s_k` is `k`'s shortest link. A neighbour never
-//!   reaches the vertices of a node at the finest level (`d ≥ s`), so this is exact there too,
-//!   while patches of coarse nodes bend towards their neighbours instead of meeting at cracks.
+//!   linked neighbours are blended with weights `(1 − (d/s)²)²` of the rest distance `d`
+//!   from neighbour `k` to the vertex, where `s` is the larger of `k`'s and the covering
+//!   node's shortest links. A neighbour never reaches the vertices of a node at the finest
+//!   level when both are fine (`d ≥ s`), so this is exact there too, while patches of coarse
+//!   nodes bend towards their neighbours instead of meeting at cracks — fine neighbours
+//!   included (with `k`'s support alone they never reached a coarse node's vertices, and a
+//!   coarse node's edge stood out from its fine neighbours along free edges).
 //!
 //! Which is better was measured (test `smooth_reconstruction_beats_rigid`): restricting a
 //! simulated full-resolution swinging net to uniform coarser cuts and reconstructing it,
@@ -72,40 +75,67 @@ pub fn reconstruction_error(
     }
 }
 
-impl TreeCutSoftBody {
-    /// Shape-matching rotation of every particle, warm-started from the last reconstruction's
-    /// rotations (its own cache, never the simulation's): what the host reconstructs never
-    /// changes what is simulated.
-    fn particle_rotations(&self, out: &mut Vec<Quat>) {
-        let h = &*self.hierarchy;
-        let pos = self.body.positions();
-        out.clear();
-        let mut cache = self.recon_rotation.0.try_lock().ok();
+/// Shape-matching rotations of the particles, computed on first use: a particle needs one only
+/// where its rigid prediction reaches a vertex at a non-zero offset (its own vertices when it
+/// is coarse, a neighbour's within its support). At the finest cut no particle needs one, and a
+/// coarse cut computes only its coarse nodes' and their fine neighbours' that reach them.
+struct LazyRotations<'a> {
+    body: &'a TreeCutSoftBody,
+    rotations: Vec<Quat>,
+    known: Vec<bool>,
+    /// The reconstruction's own warm-start cache (per hierarchy node), if not in use elsewhere.
+    cache: Option<std::sync::MutexGuard<'a, Vec<Quat>>>,
+}
+
+impl<'a> LazyRotations<'a> {
+    fn new(body: &'a TreeCutSoftBody) -> Self {
+        let n = body.particle_node.len();
+        let mut cache = body.recon_rotation.0.try_lock().ok();
         if let Some(c) = cache.as_mut() {
-            c.resize(h.len(), Quat::IDENTITY);
+            c.resize(body.hierarchy.len(), Quat::IDENTITY);
         }
-        for (p, &node) in self.particle_node.iter().enumerate() {
-            let x_p = pos[p].truncate();
-            let rest_p = h.rest_position(node);
-            let mut cov = Mat3::ZERO;
-            for q in self.body.neighbours(ParticleId::new(p)) {
-                let q_node = self.particle_node[q.index()];
-                shape::accumulate(
-                    &mut cov,
-                    pos[q.index()].truncate() - x_p,
-                    h.rest_position(q_node) - rest_p,
-                );
-            }
-            let i = node.index();
-            let start = cache.as_ref().map_or(self.rotation[i], |c| c[i]);
-            let r = shape::rotation_of(&cov, start);
-            if let Some(c) = cache.as_mut() {
-                c[i] = r;
-            }
-            out.push(r);
+        LazyRotations {
+            body,
+            rotations: vec![Quat::IDENTITY; n],
+            known: vec![false; n],
+            cache,
         }
     }
 
+    /// Particle `p`'s rotation, warm-started from the last reconstruction's (its own cache, never
+    /// the simulation's): what the host reconstructs never changes what is simulated.
+    fn get(&mut self, p: usize) -> Quat {
+        if self.known[p] {
+            return self.rotations[p];
+        }
+        let b = self.body;
+        let h = &*b.hierarchy;
+        let pos = b.body.positions();
+        let node = b.particle_node[p];
+        let x_p = pos[p].truncate();
+        let rest_p = h.rest_position(node);
+        let mut cov = Mat3::ZERO;
+        for q in b.body.neighbours(ParticleId::new(p)) {
+            let q_node = b.particle_node[q.index()];
+            shape::accumulate(
+                &mut cov,
+                pos[q.index()].truncate() - x_p,
+                h.rest_position(q_node) - rest_p,
+            );
+        }
+        let i = node.index();
+        let start = self.cache.as_ref().map_or(b.rotation[i], |c| c[i]);
+        let r = shape::rotation_of(&cov, start);
+        if let Some(c) = self.cache.as_mut() {
+            c[i] = r;
+        }
+        self.rotations[p] = r;
+        self.known[p] = true;
+        r
+    }
+}
+
+impl TreeCutSoftBody {
     /// Writes a position for every finest-level vertex into `out` (length = vertex count),
     /// using [`crate::TreeCutSettings::reconstruction`]. A query: it changes nothing, so two
     /// identical bodies stay bit-identical whether or not, and however often, either is read.
@@ -128,15 +158,19 @@ impl TreeCutSoftBody {
                 expected,
             });
         }
-        let mut rot = Vec::new();
-        self.particle_rotations(&mut rot);
+        let mut rot = LazyRotations::new(self);
         let h = &*self.hierarchy;
         let pos = self.body.positions();
         let rest_of = |v: u32| h.rest_position(h.leaf_of_vertex(v));
         match mode {
             ReconstructionMode::Rigid => {
                 for (p, &node) in self.particle_node.iter().enumerate() {
-                    let (x, r, rest) = (pos[p].truncate(), rot[p], h.rest_position(node));
+                    let (x, rest) = (pos[p].truncate(), h.rest_position(node));
+                    if h.is_leaf(node) {
+                        out[h.vertices(node)[0] as usize] = x;
+                        continue;
+                    }
+                    let r = rot.get(p);
                     for &v in h.vertices(node) {
                         out[v as usize] = x + r * (rest_of(v) - rest);
                     }
@@ -154,20 +188,25 @@ impl TreeCutSoftBody {
                     })
                     .collect();
                 for (p, &node) in self.particle_node.iter().enumerate() {
-                    let (x, r, rest) = (pos[p].truncate(), rot[p], h.rest_position(node));
+                    let (x, rest) = (pos[p].truncate(), h.rest_position(node));
                     for &v in h.vertices(node) {
                         let rv = rest_of(v);
                         // The covering particle always has weight 1 at its own rest position
                         // and at least a floor elsewhere, so the blend is well defined.
                         let own = rv - rest;
                         let mut w_sum = kernel(own.length(), support[p]).max(1e-3);
-                        let mut acc = (x + r * own) * w_sum;
+                        let rigid = if own == Vec3::ZERO {
+                            x
+                        } else {
+                            x + rot.get(p) * own
+                        };
+                        let mut acc = rigid * w_sum;
                         for q in self.body.neighbours(ParticleId::new(p)) {
                             let qi = q.index();
                             let q_rest = h.rest_position(self.particle_node[qi]);
-                            let w = kernel((rv - q_rest).length(), support[qi]);
+                            let w = kernel((rv - q_rest).length(), support[qi].max(support[p]));
                             if w > 0.0 {
-                                acc += (pos[qi].truncate() + rot[qi] * (rv - q_rest)) * w;
+                                acc += (pos[qi].truncate() + rot.get(qi) * (rv - q_rest)) * w;
                                 w_sum += w;
                             }
                         }

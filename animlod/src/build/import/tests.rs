@@ -32,7 +32,7 @@ const RIGS: [(&str, usize, usize, usize, usize); 5] = [
 #[test]
 fn real_rigs_import() {
     for (name, bones, joints, skins, clips) in RIGS {
-        let rig = Rig::from_gltf_path(&asset(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let rig = crate::build::import_path(&asset(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
         let sk = rig.skeleton();
         assert_eq!(sk.len(), bones, "{name}");
         assert_eq!(
@@ -72,11 +72,11 @@ fn real_rigs_import() {
         }
         // The slice entry point gives the same rig.
         let dir = asset(name).parent().map(|p| p.to_path_buf());
-        let again = Rig::from_gltf_slice(&read(name), dir.as_deref()).unwrap();
+        let again = crate::build::import_slice(&read(name), dir.as_deref()).unwrap();
         assert_eq!(again.bone_count(), bones);
     }
     // RobotExpressive's 4 skins share the same 43 joints; its morph-weight channels are skipped.
-    let robot = Rig::from_gltf_path(&asset("RobotExpressive.glb")).unwrap();
+    let robot = crate::build::import_path(&asset("RobotExpressive.glb")).unwrap();
     assert!(
         robot
             .skins()
@@ -101,12 +101,12 @@ fn gdbot_scene_without_nodes_list() {
             .iter()
             .any(|s| s.get("nodes").is_none())
     );
-    assert!(Rig::from_gltf_slice(&bytes, None).is_ok());
+    assert!(crate::build::import_slice(&bytes, None).is_ok());
 }
 
 #[test]
 fn gdbot_walk_constant_channels() {
-    let rig = Rig::from_gltf_path(&asset("GDQuest_GDBot.glb")).unwrap();
+    let rig = crate::build::import_path(&asset("GDQuest_GDBot.glb")).unwrap();
     let walk = rig.clip(rig.clip_by_name("walk").unwrap()).unwrap();
     let s = walk.stats();
     assert_eq!(s.keyed, [63, 63, 63]);
@@ -144,10 +144,10 @@ fn sign_flipped_rotation_keys_in_real_rigs() {
         ("Godot_PlatformerRobot.glb", true),
         ("Fox.glb", false),
     ] {
-        let rig = Rig::from_gltf_path(&asset(name)).unwrap();
+        let rig = crate::build::import_path(&asset(name)).unwrap();
         let flips: u32 = rig.clips().iter().map(|c| c.stats().hemisphere_flips).sum();
         assert_eq!(flips > 0, expect_flips, "{name}: {flips}");
-        for clip in rig.clips() {
+        for (ci, clip) in rig.clips().iter().enumerate() {
             for block in &clip.rotations {
                 let c = block.bones.len();
                 for k in 1..block.keys.len() / c {
@@ -158,7 +158,7 @@ fn sign_flipped_rotation_keys_in_real_rigs() {
             }
             // Sampling between flipped keys never swings through another pose: the sampled
             // rotation stays within the two keys' angle of each key.
-            let p = clip.sub_priorities();
+            let p = rig.priorities(crate::ClipId::new(ci)).unwrap();
             for w in p.timeline().windows(2) {
                 let (a, b) = (clip.sample_pose(w[0]), clip.sample_pose(w[1]));
                 let mid = clip.sample_pose(0.5 * (w[0] + w[1]));
@@ -322,7 +322,7 @@ fn synthetic() -> (Builder, Value) {
 fn synthetic_interpolations_and_accessors() {
     let (b, doc) = synthetic();
     let bytes = b.finish(doc);
-    let rig = Rig::from_gltf_slice(&bytes, None).unwrap();
+    let rig = crate::build::import_slice(&bytes, None).unwrap();
     let sk = rig.skeleton();
     assert_eq!(sk.len(), 3);
     assert_eq!(sk.name(crate::BoneId::from_raw(0)), "armature");
@@ -365,13 +365,13 @@ fn external_buffer_needs_base_dir() {
     std::fs::write(dir.join("my rig.bin"), &bin).unwrap();
     std::fs::write(dir.join("rig.gltf"), &text).unwrap();
     assert!(matches!(
-        Rig::from_gltf_slice(&text, None),
+        crate::build::import_slice(&text, None),
         Err(ImportError::Buffer { .. })
     ));
-    assert!(Rig::from_gltf_path(&dir.join("rig.gltf")).is_ok());
+    assert!(crate::build::import_path(&dir.join("rig.gltf")).is_ok());
     std::fs::remove_file(dir.join("my rig.bin")).unwrap();
     assert!(matches!(
-        Rig::from_gltf_path(&dir.join("rig.gltf")),
+        crate::build::import_path(&dir.join("rig.gltf")),
         Err(ImportError::Io { .. })
     ));
     let _ = std::fs::remove_dir_all(&dir);
@@ -383,7 +383,7 @@ fn import_edited(edit: impl FnOnce(&mut Value)) -> Result<Rig, ImportError> {
     let bytes = b.finish(doc.take());
     let mut doc: Value = serde_json::from_slice(&bytes).unwrap();
     edit(&mut doc);
-    Rig::from_gltf_slice(&serde_json::to_vec(&doc).unwrap(), None)
+    crate::build::import_slice(&serde_json::to_vec(&doc).unwrap(), None)
 }
 
 #[test]
@@ -542,7 +542,7 @@ fn nan_keys_are_refused() {
     let off = doc["bufferViews"][view]["byteOffset"].as_u64().unwrap_or(0) as usize
         + doc["accessors"][out]["byteOffset"].as_u64().unwrap_or(0) as usize;
     bytes[bin_start + off..bin_start + off + 4].copy_from_slice(&f32::NAN.to_le_bytes());
-    let e = Rig::from_gltf_slice(&bytes, None).unwrap_err();
+    let e = crate::build::import_slice(&bytes, None).unwrap_err();
     assert!(matches!(e, ImportError::Accessor { .. }), "{e}");
 }
 
@@ -596,14 +596,14 @@ fn byte_flipped_rigs_that_load_are_finite_everywhere() {
     let mut loaded = 0;
     for (name, ..) in RIGS {
         let bytes = read(name);
-        assert_finite_everywhere(&Rig::from_gltf_slice(&bytes, None).unwrap(), name);
+        assert_finite_everywhere(&crate::build::import_slice(&bytes, None).unwrap(), name);
         let mut rng = Rng::new(0xF11F ^ bytes.len() as u64);
         let tries = if bytes.len() > 1_000_000 { 8 } else { 40 };
         for i in 0..tries {
             let mut copy = bytes.clone();
             let at = rng.next() as usize % copy.len();
             copy[at] ^= 1 << (rng.next() % 8);
-            match Rig::from_gltf_slice(&copy, None) {
+            match crate::build::import_slice(&copy, None) {
                 Err(ImportError::Panicked(m)) => panic!("{name} flip {i}: panicked: {m}"),
                 Err(_) => {}
                 Ok(rig) => {
@@ -641,7 +641,7 @@ fn misaligned_accessors_and_overflowing_rotations_are_refused() {
         out
     };
     let bin = bin.unwrap();
-    assert!(Rig::from_gltf_slice(&rebuild(&doc, bin), None).is_ok());
+    assert!(crate::build::import_slice(&rebuild(&doc, bin), None).is_ok());
     // The rotation output accessor of the first rotation channel.
     let anim = &doc["animations"][0];
     let channel = anim["channels"]
@@ -658,7 +658,7 @@ fn misaligned_accessors_and_overflowing_rotations_are_refused() {
     d["accessors"][acc]["byteOffset"] = json!(off + 2);
     let n = d["accessors"][acc]["count"].as_u64().unwrap();
     d["accessors"][acc]["count"] = json!(n - 1);
-    match Rig::from_gltf_slice(&rebuild(&d, bin), None) {
+    match crate::build::import_slice(&rebuild(&d, bin), None) {
         Err(ImportError::Accessor { index, reason }) => {
             assert_eq!(index, acc);
             assert!(
@@ -673,7 +673,7 @@ fn misaligned_accessors_and_overflowing_rotations_are_refused() {
     let at = doc["bufferViews"][view]["byteOffset"].as_u64().unwrap_or(0) as usize + off as usize;
     let mut b = bin.to_vec();
     b[at..at + 4].copy_from_slice(&2.0e19f32.to_le_bytes());
-    match Rig::from_gltf_slice(&rebuild(&doc, &b), None) {
+    match crate::build::import_slice(&rebuild(&doc, &b), None) {
         Err(ImportError::Accessor { index, reason }) => {
             assert_eq!(index, acc);
             assert!(reason.contains("rotation key 0"), "{reason}");
@@ -690,7 +690,7 @@ fn truncated_copies_fail_cleanly() {
         let mut cuts: Vec<usize> = vec![0, 1, 4, 11, 12, 19, 20, bytes.len() / 2, bytes.len() - 1];
         cuts.extend((0..12).map(|_| rng.next() as usize % bytes.len()));
         for cut in cuts {
-            let r = Rig::from_gltf_slice(&bytes[..cut], None);
+            let r = crate::build::import_slice(&bytes[..cut], None);
             match r {
                 Err(ImportError::Panicked(m)) => panic!("{name} cut at {cut}: panicked: {m}"),
                 Err(_) => {}
@@ -723,7 +723,7 @@ fn corrupted_copies_never_panic() {
                 };
                 copy[at] = (rng.next() & 0xFF) as u8;
             }
-            match Rig::from_gltf_slice(&copy, None) {
+            match crate::build::import_slice(&copy, None) {
                 Err(ImportError::Panicked(m)) => panic!("{name} try {i}: panicked: {m}"),
                 Err(_) => outcomes[1] += 1,
                 Ok(rig) => {
@@ -764,7 +764,7 @@ fn structurally_corrupted_real_file() {
         out.extend_from_slice(bin);
         out
     };
-    assert!(Rig::from_gltf_slice(&rebuild(&doc), None).is_ok());
+    assert!(crate::build::import_slice(&rebuild(&doc), None).is_ok());
     let rot_sampler = doc["animations"][0]["channels"]
         .as_array()
         .unwrap()
@@ -792,7 +792,7 @@ fn structurally_corrupted_real_file() {
     for (i, edit) in edits.iter_mut().enumerate() {
         let mut d = doc.clone();
         edit(&mut d);
-        match Rig::from_gltf_slice(&rebuild(&d), None) {
+        match crate::build::import_slice(&rebuild(&d), None) {
             Err(ImportError::Panicked(m)) => panic!("edit {i} panicked: {m}"),
             Err(_) => {}
             Ok(_) => panic!("edit {i} imported"),

@@ -24,13 +24,14 @@ use gltf::json::validation::Checked;
 
 use crate::clip::{ChannelDesc, Clip, ClipOptions, Interpolation, Keys};
 use crate::error::ImportError;
-use crate::ids::BoneId;
+use crate::ids::{BoneId, SkinId};
+use crate::mesh::SkinnedMesh;
 use crate::rig::{Rig, Skin};
 use crate::skeleton::{BoneDesc, Skeleton};
 use crate::transform::Transform;
 use accessor::{Components, Reader};
 
-/// Options for [`Rig::from_gltf_slice_with`].
+/// Options for [`crate::build::import_slice_with`].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ImportOptions {
     /// How clips are built (constant-channel tolerance).
@@ -94,9 +95,89 @@ fn import_inner(
         })?;
         clips.push(clip);
     }
-    let mut rig = Rig::new(skeleton, clips, skins)?;
+    let skin_joints: Vec<usize> = skins.iter().map(|s| s.joints.len()).collect();
+    let meshes = read_meshes(&root, &skin_joints, &mut reader)?;
+    let mut rig = crate::build::rig(skeleton, clips, skins)?;
     rig.set_import_report(report);
+    crate::build::attach_meshes(&mut rig, meshes)?;
     Ok(rig)
+}
+
+/// The skinned meshes: every node with both a mesh and a skin, its primitives that carry
+/// `POSITION`, `JOINTS_0` and `WEIGHTS_0` concatenated (others are skipped; a primitive
+/// without `NORMAL` gets +Y normals).
+fn read_meshes(
+    root: &Root,
+    skin_joints: &[usize],
+    reader: &mut Reader<'_>,
+) -> Result<Vec<SkinnedMesh>, ImportError> {
+    use gltf::json::mesh::Semantic;
+    let mut out = Vec::new();
+    for node in &root.nodes {
+        let (Some(mi), Some(si)) = (node.mesh, node.skin) else {
+            continue;
+        };
+        let (mi, si) = (mi.value(), si.value());
+        let Some(mesh) = root.meshes.get(mi) else {
+            return Err(hierarchy(format!("mesh {mi} does not exist")));
+        };
+        let Some(&joint_count) = skin_joints.get(si) else {
+            return Err(ImportError::Skin {
+                index: si,
+                reason: "does not exist".into(),
+            });
+        };
+        let mut m = SkinnedMesh {
+            name: mesh.name.clone().unwrap_or_else(|| format!("mesh{mi}")),
+            skin: SkinId::new(si),
+            positions: Vec::new(),
+            normals: Vec::new(),
+            joints: Vec::new(),
+            weights: Vec::new(),
+        };
+        for prim in &mesh.primitives {
+            let get = |s: Semantic| prim.attributes.get(&Checked::Valid(s)).map(|a| a.value());
+            let (Some(p), Some(j), Some(w)) = (
+                get(Semantic::Positions),
+                get(Semantic::Joints(0)),
+                get(Semantic::Weights(0)),
+            ) else {
+                continue;
+            };
+            let p = reader.read(p, Type::Vec3, Components::Float)?;
+            let n = match get(Semantic::Normals) {
+                Some(n) => reader.read(n, Type::Vec3, Components::Float)?,
+                // No normals (the Fox): +Y, so positions still skin.
+                None => [0.0, 1.0, 0.0].repeat(p.len() / 3),
+            };
+            let j = reader.read(j, Type::Vec4, Components::Index)?;
+            let w = reader.read(w, Type::Vec4, Components::FloatOrNormalized)?;
+            let count = p.len() / 3;
+            if n.len() / 3 != count || j.len() / 4 != count || w.len() / 4 != count {
+                return Err(hierarchy(format!(
+                    "mesh {mi}: attribute counts of a primitive differ"
+                )));
+            }
+            m.positions
+                .extend(p.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
+            m.normals
+                .extend(n.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
+            m.joints.extend(
+                j.chunks_exact(4)
+                    .map(|c| [c[0], c[1], c[2], c[3]].map(|x| x as u16)),
+            );
+            m.weights
+                .extend(w.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]));
+        }
+        if m.positions.is_empty() {
+            continue;
+        }
+        let m = m
+            .validated(joint_count)
+            .map_err(|e| hierarchy(format!("mesh {mi}: {e}")))?;
+        out.push(m);
+    }
+    Ok(out)
 }
 
 fn hierarchy(m: String) -> ImportError {

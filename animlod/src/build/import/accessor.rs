@@ -9,8 +9,8 @@ use gltf::json::Root;
 use gltf::json::accessor::{ComponentType, Type};
 use gltf::json::validation::Checked;
 
+use super::container::load_buffer;
 use crate::error::ImportError;
-use crate::import::container::load_buffer;
 
 /// Largest element count accepted for an accessor (far above any real animation).
 const MAX_COUNT: usize = 1 << 26;
@@ -22,6 +22,9 @@ pub(crate) enum Components {
     Float,
     /// `FLOAT`, or normalised `BYTE`, `UNSIGNED_BYTE`, `SHORT`, `UNSIGNED_SHORT` (rotations).
     FloatOrNormalized,
+    /// Plain (not normalised) `UNSIGNED_BYTE` or `UNSIGNED_SHORT`, read as their integer values
+    /// (joint indices).
+    Index,
 }
 
 /// Reads accessors of one document, loading the buffers it needs on first use.
@@ -52,7 +55,13 @@ fn comp_size(c: ComponentType) -> usize {
 }
 
 #[inline]
-fn read_component(b: &[u8], c: ComponentType) -> f32 {
+fn read_component(b: &[u8], c: ComponentType, raw: bool) -> f32 {
+    if raw {
+        return match c {
+            ComponentType::U8 => b[0] as f32,
+            _ => u16::from_le_bytes([b[0], b[1]]) as f32,
+        };
+    }
     match c {
         ComponentType::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
         ComponentType::I8 => ((b[0] as i8) as f32 / 127.0).max(-1.0),
@@ -140,7 +149,10 @@ impl<'a> Reader<'a> {
             return Err(err("unknown component type".into()));
         };
         let ct = ct.0;
+        let raw = allowed == Components::Index;
         let ok = match (ct, allowed) {
+            (ComponentType::U8 | ComponentType::U16, Components::Index) => !acc.normalized,
+            (_, Components::Index) => false,
             (ComponentType::F32, _) => true,
             (ComponentType::U32, _) => false,
             (_, Components::FloatOrNormalized) => acc.normalized,
@@ -207,7 +219,7 @@ impl<'a> Reader<'a> {
             for i in 0..count {
                 let at = offset + i * stride;
                 for j in 0..d {
-                    out[i * d + j] = read_component(&bytes[at + j * cs..], ct);
+                    out[i * d + j] = read_component(&bytes[at + j * cs..], ct, raw);
                 }
             }
         }
@@ -259,7 +271,7 @@ impl<'a> Reader<'a> {
             }
             for (k, &i) in indices.iter().enumerate() {
                 for j in 0..d {
-                    out[i * d + j] = read_component(&vbytes[voff + k * elem + j * cs..], ct);
+                    out[i * d + j] = read_component(&vbytes[voff + k * elem + j * cs..], ct, raw);
                 }
             }
         }

@@ -1,0 +1,240 @@
+//! The XPBD distance-link kernel: one sweep over a colour batch of links, on the widest
+//! vector unit the CPU has.
+//!
+//! Based on: M. Macklin, M. Müller, N. Chentanez, "XPBD: Position-Based Simulation of
+//! Compliant Constrained Dynamics", Motion in Games 2016, section 3 (the compliant
+//! constraint update with its Lagrange multiplier); substeps as in Macklin et al., "Small Steps
+//! in Physics Simulation", SCA 2019.
+//!
+//! Per link (`w` = blend weight, `α̃ = α/h²`, `W = w_a + w_b` inverse masses):
+//!
+//! ```text
+//! d = x_b - x_a,  len = max(|d|, floor),  C = len - rest
+//! Δλ = (-w·C - α̃·λ) / (w·W + α̃)      (XPBD with stiffness scaled by w: α̃/w, multiplied through by w)
+//! λ += Δλ,  x_a -= w_a·Δλ·d/len,  x_b += w_b·Δλ·d/len
+//! ```
+//!
+//! computed with a single division and no negation: `s = -Δλ/len = (w·C + α̃·λ) / ((w·W + α̃)·len)`,
+//! then `λ -= s·len`, `x_a += (w_a·s)·d`, `x_b -= (w_b·s)·d` (flipping the sign of `s` is exact, so
+//! this is the update above, bit for bit). The divider is the slowest unit on the chain.
+//!
+//! A weight of 0 gives `Δλ = -α̃·λ/α̃ = -λ = 0` (λ starts each substep at 0): no effect,
+//! without a branch. The denominator and the length have small floors so that links
+//! between two pinned particles, or of zero length, stay finite instead of dividing by 0.
+//!
+//! # Storage and paths
+//! Links are stored in blocks of [`LANES`] = 16 ([`Block`], structure of arrays inside a block,
+//! 384 contiguous bytes). Within a colour batch no two links share a particle, so the links are
+//! independent: the result does not depend on their order, and a whole block is computed at once
+//! in vector lanes: gather the particles (one 16-byte load each: `xyz` and the inverse mass),
+//! transpose four registers in their 128-bit lanes, compute lane-wise, transpose back, scatter.
+//! [`KernelPath`] names the ways a block can be computed: one link at a time ([`KernelPath::Scalar`],
+//! the reference), four at a time with `glam` (SSE2 on x86-64, NEON on aarch64), and on x86-64
+//! eight (AVX2) or sixteen (AVX-512F) at a time, chosen at run time from what the CPU has
+//! ([`KernelPath::detect`]).
+//!
+//! # Determinism across paths
+//! Every path performs the same IEEE-754 single-precision operations in the same order on every
+//! lane: no fused multiply-add (it would round once instead of twice), no reciprocal estimates,
+//! correctly rounded `sqrt` and division. So **all paths give bit-identical results** on every
+//! machine, and a link gives the same bits wherever it sits in its batch (lanes or the scalar
+//! tail) — which is what makes swap-removal of other links harmless. Tests check each
+//! supported path against the scalar one bit for bit (tolerance zero).
+
+use glam::{Mat4, Vec4};
+
+#[cfg(target_arch = "x86_64")]
+mod x86;
+
+/// Floor for the constraint denominator `w·W + α̃` (two pinned ends with zero compliance).
+pub(crate) const DENOM_FLOOR: f32 = 1e-12;
+/// Floor for a link's current length (coincident ends).
+pub(crate) const LENGTH_FLOOR: f32 = 1e-12;
+/// Links per block: one AVX-512 register of `f32`.
+pub(crate) const LANES: usize = 16;
+
+/// How the link kernel computes a block of links. All paths give bit-identical results (see
+/// the module docs); they differ only in speed. [`KernelPath::detect`] picks the fastest one the
+/// CPU supports, and a body uses it unless told otherwise
+/// ([`crate::SoftBody::set_kernel_path`], for tests and benchmarks).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum KernelPath {
+    /// One link at a time: the reference arithmetic.
+    Scalar,
+    /// Four links at a time in 128-bit registers through `glam` (SSE2 on x86-64, NEON on
+    /// aarch64, plain code elsewhere).
+    Lanes4,
+    /// Eight links at a time in 256-bit AVX2 registers (x86-64 only).
+    Avx2,
+    /// Sixteen links at a time in 512-bit AVX-512F registers (x86-64 only).
+    Avx512,
+}
+
+impl KernelPath {
+    /// Every path, narrowest first.
+    pub const ALL: [KernelPath; 4] = [Self::Scalar, Self::Lanes4, Self::Avx2, Self::Avx512];
+
+    /// Whether this CPU can run the path (checked at run time).
+    pub fn is_supported(self) -> bool {
+        match self {
+            Self::Scalar | Self::Lanes4 => true,
+            #[cfg(target_arch = "x86_64")]
+            Self::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+            #[cfg(target_arch = "x86_64")]
+            Self::Avx512 => std::arch::is_x86_feature_detected!("avx512f"),
+            #[cfg(not(target_arch = "x86_64"))]
+            Self::Avx2 | Self::Avx512 => false,
+        }
+    }
+
+    /// The fastest supported path: AVX2, else AVX-512F, else four lanes.
+    ///
+    /// AVX2 comes first because it measured faster than AVX-512F on the machine this was
+    /// tuned on (a Sapphire Rapids Xeon: the kernel is bound by the particle transposes, and
+    /// 512-bit shuffles issue on one port where 256-bit ones have two), see the `step` bench.
+    pub fn detect() -> Self {
+        [Self::Avx2, Self::Avx512]
+            .into_iter()
+            .find(|p| p.is_supported())
+            .unwrap_or(Self::Lanes4)
+    }
+
+    /// The supported paths, narrowest first.
+    pub fn supported() -> impl Iterator<Item = KernelPath> {
+        Self::ALL.into_iter().filter(|p| p.is_supported())
+    }
+
+    /// A short lowercase name (`scalar`, `lanes4`, `avx2`, `avx512`), for reports and benches.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Scalar => "scalar",
+            Self::Lanes4 => "lanes4",
+            Self::Avx2 => "avx2",
+            Self::Avx512 => "avx512",
+        }
+    }
+}
+
+/// Sixteen links, one per lane.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, align(64))]
+pub(crate) struct Block {
+    pub(crate) a: [u32; LANES],
+    pub(crate) b: [u32; LANES],
+    pub(crate) rest: [f32; LANES],
+    pub(crate) compliance: [f32; LANES],
+    pub(crate) weight: [f32; LANES],
+    pub(crate) lambda: [f32; LANES],
+}
+
+impl Block {
+    /// Copies lane `from` of `src` into lane `to` of `self`.
+    #[inline]
+    pub(crate) fn copy_lane(&mut self, to: usize, src: &Block, from: usize) {
+        self.a[to] = src.a[from];
+        self.b[to] = src.b[from];
+        self.rest[to] = src.rest[from];
+        self.compliance[to] = src.compliance[from];
+        self.weight[to] = src.weight[from];
+        self.lambda[to] = src.lambda[from];
+    }
+}
+
+/// Solves lane `k` of a block alone; the reference arithmetic that every path reproduces.
+#[inline(always)]
+pub(crate) fn solve_lane(p: &mut [Vec4], blk: &mut Block, k: usize, inv_h2: f32) {
+    let (ia, ib) = (blk.a[k] as usize, blk.b[k] as usize);
+    let pa = p[ia];
+    let pb = p[ib];
+    let (dx, dy, dz) = (pb.x - pa.x, pb.y - pa.y, pb.z - pa.z);
+    let len = (dx * dx + dy * dy + dz * dz).sqrt().max(LENGTH_FLOOR);
+    let (weight, lambda) = (blk.weight[k], blk.lambda[k]);
+    let at = blk.compliance[k] * inv_h2;
+    let c = len - blk.rest[k];
+    let den = (weight * (pa.w + pb.w) + at).max(DENOM_FLOOR);
+    // One division: s = -Δλ/len.
+    let s = (weight * c + at * lambda) / (den * len);
+    blk.lambda[k] = lambda - s * len;
+    let (sa, sb) = (pa.w * s, pb.w * s);
+    // The fourth lane (the inverse mass) is kept as it is.
+    p[ia] = Vec4::new(pa.x + dx * sa, pa.y + dy * sa, pa.z + dz * sa, pa.w);
+    p[ib] = Vec4::new(pb.x - dx * sb, pb.y - dy * sb, pb.z - dz * sb, pb.w);
+}
+
+/// Lane-wise square root (SSE `sqrtps` once LLVM merges the lanes; IEEE-exact either way).
+#[inline(always)]
+fn sqrt4(v: Vec4) -> Vec4 {
+    Vec4::new(v.x.sqrt(), v.y.sqrt(), v.z.sqrt(), v.w.sqrt())
+}
+
+/// Lanes `o..o + 4` of a block, in 128-bit registers: gather, transpose, compute, scatter.
+#[inline(always)]
+fn solve_quad(p: &mut [Vec4], blk: &mut Block, o: usize, inv_h2: f32) {
+    let ia = [0, 1, 2, 3].map(|k| blk.a[o + k] as usize);
+    let ib = [0, 1, 2, 3].map(|k| blk.b[o + k] as usize);
+    // Columns are particles; after the transpose the columns are x, y, z, w of four particles.
+    let ta = Mat4::from_cols(p[ia[0]], p[ia[1]], p[ia[2]], p[ia[3]]).transpose();
+    let tb = Mat4::from_cols(p[ib[0]], p[ib[1]], p[ib[2]], p[ib[3]]).transpose();
+    let (ax, ay, az, aw) = (ta.x_axis, ta.y_axis, ta.z_axis, ta.w_axis);
+    let (bx, by, bz, bw) = (tb.x_axis, tb.y_axis, tb.z_axis, tb.w_axis);
+    let lane = |v: &[f32; LANES]| Vec4::new(v[o], v[o + 1], v[o + 2], v[o + 3]);
+    let (dx, dy, dz) = (bx - ax, by - ay, bz - az);
+    let len = sqrt4(dx * dx + dy * dy + dz * dz).max(Vec4::splat(LENGTH_FLOOR));
+    let at = lane(&blk.compliance) * inv_h2;
+    let wk = lane(&blk.weight);
+    let lk = lane(&blk.lambda);
+    let cc = len - lane(&blk.rest);
+    let den = (wk * (aw + bw) + at).max(Vec4::splat(DENOM_FLOOR));
+    let s = (wk * cc + at * lk) / (den * len);
+    blk.lambda[o..o + 4].copy_from_slice(&(lk - s * len).to_array());
+    let (sa, sb) = (aw * s, bw * s);
+    let na = Mat4::from_cols(ax + dx * sa, ay + dy * sa, az + dz * sa, aw).transpose();
+    let nb = Mat4::from_cols(bx - dx * sb, by - dy * sb, bz - dz * sb, bw).transpose();
+    for k in 0..4 {
+        p[ia[k]] = na.col(k);
+        p[ib[k]] = nb.col(k);
+    }
+}
+
+/// One sweep over a batch of `len` links (in `blocks`) that share no particle.
+pub(crate) fn solve_batch(
+    path: KernelPath,
+    p: &mut [Vec4],
+    blocks: &mut [Block],
+    len: usize,
+    inv_h2: f32,
+) {
+    let full = len / LANES;
+    let done = match path {
+        KernelPath::Scalar => 0,
+        KernelPath::Lanes4 => {
+            for blk in &mut blocks[..full] {
+                for o in (0..LANES).step_by(4) {
+                    solve_quad(p, blk, o, inv_h2);
+                }
+            }
+            full
+        }
+        #[cfg(target_arch = "x86_64")]
+        KernelPath::Avx2 => x86::blocks_avx2(p, &mut blocks[..full], inv_h2),
+        #[cfg(target_arch = "x86_64")]
+        KernelPath::Avx512 => x86::blocks_avx512(p, &mut blocks[..full], inv_h2),
+        #[cfg(not(target_arch = "x86_64"))]
+        KernelPath::Avx2 | KernelPath::Avx512 => 0,
+    };
+    // Whatever the vector path left (the last partial block, or everything when it could not
+    // run), lane by lane: the same bits.
+    for i in done * LANES..len {
+        solve_lane(p, &mut blocks[i / LANES], i % LANES, inv_h2);
+    }
+}
+
+/// One sweep over links that may share particles: strictly in order, one lane at a time.
+pub(crate) fn solve_ordered(p: &mut [Vec4], blocks: &mut [Block], len: usize, inv_h2: f32) {
+    for i in 0..len {
+        solve_lane(p, &mut blocks[i / LANES], i % LANES, inv_h2);
+    }
+}
+
+#[cfg(test)]
+mod tests;

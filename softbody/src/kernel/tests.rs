@@ -1,0 +1,132 @@
+//! Every supported kernel path against the scalar reference, bit for bit.
+
+use super::*;
+
+/// A little deterministic generator (no dependency needed for test data).
+struct Lcg(u64);
+impl Lcg {
+    fn next(&mut self) -> u32 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 33) as u32
+    }
+    fn unit(&mut self) -> f32 {
+        self.next() as f32 / (1u64 << 31) as f32
+    }
+}
+
+/// `n` particles and a batch of `len` links over distinct particles (a random matching), with
+/// pinned particles, zero compliance, zero weights and coincident ends among them.
+fn batch(seed: u64, n: usize, len: usize) -> (Vec<Vec4>, Vec<Block>) {
+    let mut rng = Lcg(seed);
+    let mut p: Vec<Vec4> = (0..n)
+        .map(|_| {
+            let w = if rng.next().is_multiple_of(7) {
+                0.0
+            } else {
+                0.1 + rng.unit()
+            };
+            Vec4::new(rng.unit(), rng.unit() - 0.5, rng.unit() * 0.3, w)
+        })
+        .collect();
+    let mut order: Vec<u32> = (0..n as u32).collect();
+    for i in (1..order.len()).rev() {
+        order.swap(i, rng.next() as usize % (i + 1));
+    }
+    let mut blocks = vec![Block::default(); len.div_ceil(LANES)];
+    for i in 0..len {
+        let (a, b) = (order[2 * i], order[2 * i + 1]);
+        if i % 11 == 5 {
+            p[b as usize] = p[a as usize]; // coincident ends: the length floor
+        }
+        let blk = &mut blocks[i / LANES];
+        let k = i % LANES;
+        blk.a[k] = a;
+        blk.b[k] = b;
+        blk.rest[k] = rng.unit() * 0.2;
+        blk.compliance[k] = if i % 3 == 0 { 0.0 } else { rng.unit() * 1e-3 };
+        blk.weight[k] = match i % 5 {
+            0 => 0.0,
+            1 => rng.unit(),
+            _ => 1.0,
+        };
+        // λ = 0 for weight-0 links, as at the start of every substep (their "no effect" case).
+        blk.lambda[k] = if blk.weight[k] == 0.0 {
+            0.0
+        } else {
+            (rng.unit() - 0.5) * 0.01
+        };
+    }
+    (p, blocks)
+}
+
+fn bits(p: &[Vec4]) -> Vec<[u32; 4]> {
+    p.iter().map(|v| v.to_array().map(f32::to_bits)).collect()
+}
+
+/// Every supported path gives exactly the scalar path's positions and multipliers, over
+/// several sweeps, for batch lengths with and without a partial last block.
+#[test]
+fn every_path_matches_scalar_bitwise() {
+    let paths: Vec<KernelPath> = KernelPath::supported().collect();
+    assert!(paths.contains(&KernelPath::Scalar) && paths.contains(&KernelPath::Lanes4));
+    for (seed, len) in [(1u64, 16usize), (2, 37), (3, 160), (4, 5), (5, 1000)] {
+        let (p0, b0) = batch(seed, 2 * len + 9, len);
+        let (mut p_ref, mut b_ref) = (p0.clone(), b0.clone());
+        for _ in 0..5 {
+            solve_batch(KernelPath::Scalar, &mut p_ref, &mut b_ref, len, 3600.0);
+        }
+        for &path in &paths {
+            let (mut p, mut b) = (p0.clone(), b0.clone());
+            for _ in 0..5 {
+                solve_batch(path, &mut p, &mut b, len, 3600.0);
+            }
+            assert_eq!(bits(&p), bits(&p_ref), "{path:?}, {len} links");
+            let lam = |b: &[Block]| -> Vec<u32> {
+                b.iter()
+                    .flat_map(|blk| blk.lambda.map(f32::to_bits))
+                    .collect()
+            };
+            assert_eq!(lam(&b), lam(&b_ref), "{path:?}, {len} links");
+        }
+        assert_ne!(bits(&p_ref), bits(&p0), "the sweep moved something");
+    }
+}
+
+/// The scalar path keeps inverse masses, leaves weight-0 links' particles and pinned particles
+/// where they were, and moves the others.
+#[test]
+fn scalar_reference_properties() {
+    let (p0, b0) = batch(9, 80, 32);
+    let (mut p, mut b) = (p0.clone(), b0.clone());
+    solve_batch(KernelPath::Scalar, &mut p, &mut b, 32, 3600.0);
+    assert!(
+        p.iter()
+            .zip(&p0)
+            .all(|(x, y)| x.w.to_bits() == y.w.to_bits())
+    );
+    for i in 0..32 {
+        let blk = &b0[i / LANES];
+        let k = i % LANES;
+        let (a, bb) = (blk.a[k] as usize, blk.b[k] as usize);
+        if blk.weight[k] == 0.0 {
+            assert_eq!(p[a], p0[a]);
+            assert_eq!(p[bb], p0[bb]);
+        }
+        for q in [a, bb] {
+            if p0[q].w == 0.0 {
+                assert_eq!(p[q], p0[q], "pinned particle moved");
+            }
+        }
+    }
+    assert!(p.iter().zip(&p0).any(|(x, y)| x != y));
+}
+
+/// Only supported paths are reported, and the detected one is among them.
+#[test]
+fn detection_is_consistent() {
+    assert!(KernelPath::detect().is_supported());
+    assert!(KernelPath::Scalar.is_supported());
+}

@@ -1,0 +1,269 @@
+//! The AVX2 and AVX-512F block kernels (x86-64), selected at run time.
+//!
+//! # The one exception to `forbid(unsafe_code)`
+//! A function compiled for a CPU feature (`#[target_feature]`) may only be called once the CPU
+//! is known to have it, and Rust makes that call `unsafe`. This module holds the crate's only
+//! two `unsafe` blocks: each calls its kernel right after `is_x86_feature_detected!` confirmed
+//! the feature. Everything else here is safe code: since Rust 1.87 (1.89 for AVX-512) the `std::arch` value
+//! intrinsics are safe inside a function compiled with their feature, particles move between
+//! `glam::Vec4` and `__m128` through `glam`'s safe conversions, and link data is read from and
+//! written to the block's arrays by value. Every particle access is a checked slice index, so
+//! a bad index panics instead of reading out of bounds.
+//!
+//! # Layout in registers
+//! Register `r_j` (`j` = 0..3) holds, in its 128-bit lane `L`, the particle of link `4L + j`.
+//! Transposing the four registers inside each 128-bit lane (`unpacklo/hi` + `shuffle`) gives
+//! `x, y, z, w` registers whose lane `i` belongs to link `i`: the links stay in their natural
+//! order, so the block's parameters are plain contiguous loads. The transpose is its own
+//! inverse, which puts the results back for the scatter.
+#![allow(unsafe_code)]
+
+use super::{Block, DENOM_FLOOR, LANES, LENGTH_FLOOR};
+use glam::Vec4;
+use std::arch::x86_64::*;
+
+/// Solves every block of `blocks` with AVX-512F; returns the number solved (0 if the CPU
+/// lacks AVX-512F, leaving them to the caller's scalar loop).
+pub(super) fn blocks_avx512(p: &mut [Vec4], blocks: &mut [Block], inv_h2: f32) -> usize {
+    if !is_x86_feature_detected!("avx512f") {
+        return 0;
+    }
+    // SAFETY: the CPU supports AVX-512F (checked just above), which is the only requirement
+    // for calling a function compiled with `target_feature(enable = "avx512f")`.
+    unsafe { run_avx512(p, blocks, inv_h2) };
+    blocks.len()
+}
+
+/// Solves every block of `blocks` with AVX2; returns the number solved (0 if the CPU lacks AVX2).
+pub(super) fn blocks_avx2(p: &mut [Vec4], blocks: &mut [Block], inv_h2: f32) -> usize {
+    if !is_x86_feature_detected!("avx2") {
+        return 0;
+    }
+    // SAFETY: the CPU supports AVX2 (checked just above), which is the only requirement for
+    // calling a function compiled with `target_feature(enable = "avx2")`.
+    unsafe { run_avx2(p, blocks, inv_h2) };
+    blocks.len()
+}
+
+#[target_feature(enable = "avx512f")]
+fn run_avx512(p: &mut [Vec4], blocks: &mut [Block], inv_h2: f32) {
+    for blk in blocks {
+        block_avx512(p, blk, inv_h2);
+    }
+}
+
+#[target_feature(enable = "avx2")]
+fn run_avx2(p: &mut [Vec4], blocks: &mut [Block], inv_h2: f32) {
+    for blk in blocks {
+        block_avx2(p, blk, 0, inv_h2);
+        block_avx2(p, blk, 8, inv_h2);
+    }
+}
+
+// ---- AVX-512F: sixteen links ----
+
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn load16(v: &[f32; LANES]) -> __m512 {
+    _mm512_setr_ps(
+        v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10], v[11], v[12], v[13],
+        v[14], v[15],
+    )
+}
+
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn store16(v: __m512, out: &mut [f32; LANES]) {
+    let q = [
+        _mm512_extractf32x4_ps::<0>(v),
+        _mm512_extractf32x4_ps::<1>(v),
+        _mm512_extractf32x4_ps::<2>(v),
+        _mm512_extractf32x4_ps::<3>(v),
+    ];
+    for (l, q) in q.into_iter().enumerate() {
+        out[4 * l..4 * l + 4].copy_from_slice(&Vec4::from(q).to_array());
+    }
+}
+
+// Gather, transpose and scatter are macros rather than functions: a `#[target_feature]`
+// function cannot be `#[inline(always)]`, and one that is not inlined passes its registers
+// through memory.
+
+/// In-lane 4×4 transpose of four registers (its own inverse).
+macro_rules! transpose {
+    ($r:expr, $unpacklo:ident, $unpackhi:ident, $shuffle:ident) => {{
+        let r = $r;
+        let t0 = $unpacklo(r[0], r[1]);
+        let t1 = $unpacklo(r[2], r[3]);
+        let t2 = $unpackhi(r[0], r[1]);
+        let t3 = $unpackhi(r[2], r[3]);
+        [
+            $shuffle::<0x44>(t0, t1),
+            $shuffle::<0xEE>(t0, t1),
+            $shuffle::<0x44>(t2, t3),
+            $shuffle::<0xEE>(t2, t3),
+        ]
+    }};
+}
+
+/// Gathers the particles of sixteen links: `x, y, z, w` registers in link order.
+macro_rules! gather16 {
+    ($p:expr, $idx:expr) => {{
+        let (p, idx): (&[Vec4], &[u32; LANES]) = ($p, $idx);
+        let at = |k: usize| -> __m128 { p[idx[k] as usize].into() };
+        let row = |j: usize| {
+            let v = _mm512_castps128_ps512(at(j));
+            let v = _mm512_insertf32x4::<1>(v, at(4 + j));
+            let v = _mm512_insertf32x4::<2>(v, at(8 + j));
+            _mm512_insertf32x4::<3>(v, at(12 + j))
+        };
+        transpose!(
+            [row(0), row(1), row(2), row(3)],
+            _mm512_unpacklo_ps,
+            _mm512_unpackhi_ps,
+            _mm512_shuffle_ps
+        )
+    }};
+}
+
+/// Writes `x, y, z, w` registers back to the particles of sixteen links.
+macro_rules! scatter16 {
+    ($p:expr, $idx:expr, $xyzw:expr) => {{
+        let (p, idx): (&mut [Vec4], &[u32; LANES]) = ($p, $idx);
+        let r = transpose!(
+            $xyzw,
+            _mm512_unpacklo_ps,
+            _mm512_unpackhi_ps,
+            _mm512_shuffle_ps
+        );
+        for j in 0..4 {
+            p[idx[j] as usize] = _mm512_extractf32x4_ps::<0>(r[j]).into();
+            p[idx[4 + j] as usize] = _mm512_extractf32x4_ps::<1>(r[j]).into();
+            p[idx[8 + j] as usize] = _mm512_extractf32x4_ps::<2>(r[j]).into();
+            p[idx[12 + j] as usize] = _mm512_extractf32x4_ps::<3>(r[j]).into();
+        }
+    }};
+}
+
+/// The link update on whole registers (see the module docs of `kernel` for the formula): takes
+/// the gathered `x, y, z, w` of both ends and the links' parameters, returns the new λ and the
+/// new `x, y, z, w` of both ends. One body for both widths, named by their intrinsics.
+macro_rules! solve_registers {
+    (
+        $a:expr, $b:expr, $rest:expr, $compliance:expr, $weight:expr, $lambda:expr, $inv_h2:expr;
+        $sub:ident, $add:ident, $mul:ident, $div:ident, $sqrt:ident, $max:ident, $set1:ident
+    ) => {{
+        let [ax, ay, az, aw] = $a;
+        let [bx, by, bz, bw] = $b;
+        let (dx, dy, dz) = ($sub(bx, ax), $sub(by, ay), $sub(bz, az));
+        let len2 = $add($add($mul(dx, dx), $mul(dy, dy)), $mul(dz, dz));
+        let len = $max($sqrt(len2), $set1(LENGTH_FLOOR));
+        let at = $mul($compliance, $set1($inv_h2));
+        let (wk, lk) = ($weight, $lambda);
+        let c = $sub(len, $rest);
+        let den = $max($add($mul(wk, $add(aw, bw)), at), $set1(DENOM_FLOOR));
+        let s = $div($add($mul(wk, c), $mul(at, lk)), $mul(den, len));
+        let (sa, sb) = ($mul(aw, s), $mul(bw, s));
+        (
+            $sub(lk, $mul(s, len)),
+            [
+                $add(ax, $mul(dx, sa)),
+                $add(ay, $mul(dy, sa)),
+                $add(az, $mul(dz, sa)),
+                aw,
+            ],
+            [
+                $sub(bx, $mul(dx, sb)),
+                $sub(by, $mul(dy, sb)),
+                $sub(bz, $mul(dz, sb)),
+                bw,
+            ],
+        )
+    }};
+}
+
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn block_avx512(p: &mut [Vec4], blk: &mut Block, inv_h2: f32) {
+    let (lambda, na, nb) = solve_registers!(
+        gather16!(p, &blk.a), gather16!(p, &blk.b), load16(&blk.rest),
+        load16(&blk.compliance), load16(&blk.weight), load16(&blk.lambda), inv_h2;
+        _mm512_sub_ps, _mm512_add_ps, _mm512_mul_ps, _mm512_div_ps, _mm512_sqrt_ps,
+        _mm512_max_ps, _mm512_set1_ps
+    );
+    store16(lambda, &mut blk.lambda);
+    scatter16!(p, &blk.a, na);
+    scatter16!(p, &blk.b, nb);
+}
+
+// ---- AVX2: eight links (lanes `o..o + 8` of a block) ----
+
+#[target_feature(enable = "avx2")]
+#[inline]
+fn load8(v: &[f32; LANES], o: usize) -> __m256 {
+    _mm256_setr_ps(
+        v[o],
+        v[o + 1],
+        v[o + 2],
+        v[o + 3],
+        v[o + 4],
+        v[o + 5],
+        v[o + 6],
+        v[o + 7],
+    )
+}
+
+#[target_feature(enable = "avx2")]
+#[inline]
+fn store8(v: __m256, out: &mut [f32; LANES], o: usize) {
+    let lo = Vec4::from(_mm256_castps256_ps128(v)).to_array();
+    let hi = Vec4::from(_mm256_extractf128_ps::<1>(v)).to_array();
+    out[o..o + 4].copy_from_slice(&lo);
+    out[o + 4..o + 8].copy_from_slice(&hi);
+}
+
+/// Gathers the particles of links `o..o + 8`: `x, y, z, w` registers in link order.
+macro_rules! gather8 {
+    ($p:expr, $idx:expr, $o:expr) => {{
+        let (p, idx, o): (&[Vec4], &[u32; LANES], usize) = ($p, $idx, $o);
+        let at = |k: usize| -> __m128 { p[idx[o + k] as usize].into() };
+        let row = |j: usize| _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(at(j)), at(4 + j));
+        transpose!(
+            [row(0), row(1), row(2), row(3)],
+            _mm256_unpacklo_ps,
+            _mm256_unpackhi_ps,
+            _mm256_shuffle_ps
+        )
+    }};
+}
+
+/// Writes `x, y, z, w` registers back to the particles of links `o..o + 8`.
+macro_rules! scatter8 {
+    ($p:expr, $idx:expr, $o:expr, $xyzw:expr) => {{
+        let (p, idx, o): (&mut [Vec4], &[u32; LANES], usize) = ($p, $idx, $o);
+        let r = transpose!(
+            $xyzw,
+            _mm256_unpacklo_ps,
+            _mm256_unpackhi_ps,
+            _mm256_shuffle_ps
+        );
+        for j in 0..4 {
+            p[idx[o + j] as usize] = _mm256_castps256_ps128(r[j]).into();
+            p[idx[o + 4 + j] as usize] = _mm256_extractf128_ps::<1>(r[j]).into();
+        }
+    }};
+}
+
+#[target_feature(enable = "avx2")]
+#[inline]
+fn block_avx2(p: &mut [Vec4], blk: &mut Block, o: usize, inv_h2: f32) {
+    let (lambda, na, nb) = solve_registers!(
+        gather8!(p, &blk.a, o), gather8!(p, &blk.b, o), load8(&blk.rest, o),
+        load8(&blk.compliance, o), load8(&blk.weight, o), load8(&blk.lambda, o), inv_h2;
+        _mm256_sub_ps, _mm256_add_ps, _mm256_mul_ps, _mm256_div_ps, _mm256_sqrt_ps,
+        _mm256_max_ps, _mm256_set1_ps
+    );
+    store8(lambda, &mut blk.lambda, o);
+    scatter8!(p, &blk.a, o, na);
+    scatter8!(p, &blk.b, o, nb);
+}
