@@ -408,7 +408,7 @@ pub(crate) fn perception_error_cost(
     let path = dir.join("perception_error_cost.png");
     let cols = 4usize;
     let rows = section.scenes.len().div_ceil(cols).max(1);
-    let size = (1600, 60 + 420 * rows as u32);
+    let size = (1780, 60 + 420 * rows as u32);
     let strategies: Vec<&str> = section
         .scenes
         .iter()
@@ -434,7 +434,30 @@ pub(crate) fn perception_error_cost(
                 (font::FAMILY, 22),
             )
             .map_err(err)?;
-        let panels = area.split_evenly((rows, cols));
+        // One legend for every panel, in a column of its own, so it hides no point.
+        let (grid, key) = area.split_horizontally(1600);
+        let style = TextStyle::from((font::FAMILY, 16).into_font()).color(&BLACK);
+        let mut y = 60;
+        key.draw(&PathElement::new([(10, y), (30, y)], BLACK.stroke_width(2)))
+            .map_err(err)?;
+        key.draw_text("uniform cuts", &style, (38, y - 9))
+            .map_err(err)?;
+        y += 26;
+        key.draw(&TriangleMarker::new((20, y), 7, BLACK.filled()))
+            .map_err(err)?;
+        key.draw_text("reference (0 px)", &style, (38, y - 9))
+            .map_err(err)?;
+        for (k, name) in strategies.iter().enumerate() {
+            y += 26;
+            key.draw(&Circle::new((20, y), 6, colour(k).filled()))
+                .map_err(err)?;
+            key.draw_text(name, &style, (38, y - 9)).map_err(err)?;
+        }
+        y += 26;
+        key.draw(&PathElement::new([(10, y), (30, y)], BLACK.stroke_width(1)))
+            .map_err(err)?;
+        key.draw_text("1 pixel", &style, (38, y - 9)).map_err(err)?;
+        let panels = grid.split_evenly((rows, cols));
         for (scene, panel) in section.scenes.iter().zip(panels.iter()) {
             let horizon = scene.chaotic.then_some(section.horizon_steps);
             let runs: Vec<_> = scene
@@ -490,9 +513,7 @@ pub(crate) fn perception_error_cost(
                 .collect();
             chart
                 .draw_series(LineSeries::new(curve.clone(), BLACK.stroke_width(2)))
-                .map_err(err)?
-                .label("uniform cuts")
-                .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], BLACK.stroke_width(2)));
+                .map_err(err)?;
             chart
                 .draw_series(
                     curve
@@ -511,9 +532,7 @@ pub(crate) fn perception_error_cost(
                     full.iter()
                         .map(|&p| TriangleMarker::new(p, 8, BLACK.filled())),
                 )
-                .map_err(err)?
-                .label("reference (0 px)")
-                .legend(|(x, y)| TriangleMarker::new((x + 8, y), 6, BLACK.filled()));
+                .map_err(err)?;
             chart
                 .draw_series(DashedLineSeries::new(
                     [(0.0, 1.0), (max_ms * 1.08, 1.0)],
@@ -531,18 +550,8 @@ pub(crate) fn perception_error_cost(
                 let p = (r.ms_per_step, r.screen_p99_px.max(FLOOR));
                 chart
                     .draw_series(std::iter::once(Circle::new(p, 6, col.filled())))
-                    .map_err(err)?
-                    .label(r.strategy)
-                    .legend(move |(x, y)| Circle::new((x + 8, y), 5, col.filled()));
+                    .map_err(err)?;
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::LowerRight)
-                .label_font((font::FAMILY, 12))
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .draw()
-                .map_err(err)?;
         }
         Ok(())
     })
