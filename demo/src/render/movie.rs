@@ -114,10 +114,7 @@ pub(crate) fn perception_movie(movie: &Movie, dir: &Path) -> Result<PathBuf, Dem
         let mut right = lod;
         text::draw_captions(
             &mut right,
-            &[Caption::sub(format!(
-                "feedback loop, {} nodes (levels 0-4+: purple, blue, teal, green, yellow)",
-                f.nodes
-            ))],
+            &[Caption::sub(format!("feedback loop, {} nodes", f.nodes))],
             false,
         )
         .map_err(|e| DemoError::draw(&path, e))?;
@@ -130,7 +127,8 @@ pub(crate) fn perception_movie(movie: &Movie, dir: &Path) -> Result<PathBuf, Dem
                 movie.scene.name,
                 f.step + 1
             ),
-            "reference (left) and level of detail (right), through the scene's own camera",
+            "reference (left); feedback loop (right) by level: 0 (finest) purple, 1 blue, 2 teal, \
+             3 green, 4+ yellow",
         )
         .map_err(|e| DemoError::draw(&path, e))?;
         images.push(image);
