@@ -112,15 +112,15 @@ static int run_net(SlodWorld *world, unsigned steps) {
     size_t nv = 0;
     SlodResult sized = slod_cloth_vertex_positions(world, cloth, NULL, 0, &nv);
     if (sized != SLOD_RESULT_OK) fail("sizing vertex buffer", sized);
-    float(*verts)[3] = malloc(nv * sizeof *verts);
+    float *verts = malloc(3 * nv * sizeof *verts); /* x, y, z per vertex */
     if (!verts) return 1;
     size_t written = 0;
     CHECK(slod_cloth_vertex_positions(world, cloth, verts, nv, &written));
     int finite = 1;
     float lowest = 0.0f;
     for (size_t i = 0; i < written; ++i) {
-        for (int k = 0; k < 3; ++k) finite &= isfinite(verts[i][k]) ? 1 : 0;
-        if (verts[i][1] < lowest) lowest = verts[i][1];
+        for (int k = 0; k < 3; ++k) finite &= isfinite(verts[3 * i + k]) ? 1 : 0;
+        if (verts[3 * i + 1] < lowest) lowest = verts[3 * i + 1];
     }
     free(verts);
 
@@ -216,21 +216,21 @@ static int run_crowd(SlodWorld *world, const char *rig_path, unsigned characters
         size_t nb = 0;
         SlodResult sized = slod_character_model_matrices(world, ids[0], NULL, 0, &nb);
         if (sized != SLOD_RESULT_OK) fail("sizing matrix buffer", sized);
-        float(*m)[16] = malloc(nb * sizeof *m);
+        float *m = malloc(16 * nb * sizeof *m); /* 16 floats per bone, column-major */
         if (!m) return 1;
         size_t got = 0;
         CHECK(slod_character_model_matrices(world, ids[0], m, nb, &got));
         for (size_t i = 0; i < got; ++i)
-            for (int k = 0; k < 16; ++k) finite &= isfinite(m[i][k]) ? 1 : 0;
+            for (int k = 0; k < 16; ++k) finite &= isfinite(m[16 * i + k]) ? 1 : 0;
         free(m);
         if (info.skins > 0) {
             size_t nj = 0;
             CHECK(slod_rig_skin_joint_count(world, rig, 0, &nj));
-            float(*sk)[16] = malloc((nj ? nj : 1) * sizeof *sk);
+            float *sk = malloc(16 * (nj ? nj : 1) * sizeof *sk);
             if (!sk) return 1;
             CHECK(slod_character_skinning_matrices(world, ids[0], 0, sk, nj, &got));
             for (size_t i = 0; i < got; ++i)
-                for (int k = 0; k < 16; ++k) finite &= isfinite(sk[i][k]) ? 1 : 0;
+                for (int k = 0; k < 16; ++k) finite &= isfinite(sk[16 * i + k]) ? 1 : 0;
             free(sk);
         }
         printf("crowd matrices bones %zu finite %d\n", nb, finite);

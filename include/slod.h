@@ -991,8 +991,8 @@ SlodResult slod_cloth_create_grid(struct SlodWorld *world,
 /**
  * Creates a cloth from the host's own triangle mesh and writes its id.
  *
- * `positions` holds `vertex_count` rest positions (float[3] each), `triangles` holds
- * `triangle_count` index triples, `masses` is NULL (each vertex gets a third of its triangles'
+ * `positions` holds `vertex_count` rest positions as 3 floats each (x, y, z; stride 3
+ * floats), `triangles` holds `triangle_count` index triples (stride 3 indices), `masses` is NULL (each vertex gets a third of its triangles'
  * area times 1 kg/m²) or holds `vertex_count` masses (finite, > 0). The mesh must be
  * connected and use every vertex. Uses `desc->solver` and `desc->initial_level`; the grid
  * fields are ignored. Vertex indices are the host's: pins, reconstructed positions and
@@ -1003,15 +1003,15 @@ SlodResult slod_cloth_create_grid(struct SlodWorld *world,
  * argument (`positions`, `triangles`, `masses`, `vertex_count`, a desc field); nothing is created.
  *
  * # Safety
- * `world` NULL or a live world; `desc` NULL or valid; `positions` valid for `vertex_count`
- * reads, `triangles` for `triangle_count` reads, `masses` NULL or valid for `vertex_count`
+ * `world` NULL or a live world; `desc` NULL or valid; `positions` valid for `3 × vertex_count`
+ * float reads, `triangles` for `3 × triangle_count` index reads, `masses` NULL or valid for `vertex_count`
  * reads; `out_cloth` NULL or valid for a write.
  */
 SlodResult slod_cloth_create_mesh(struct SlodWorld *world,
                                   const struct SlodClothDesc *desc,
-                                  const float (*positions)[3],
+                                  const float *positions,
                                   size_t vertex_count,
-                                  const uint32_t (*triangles)[3],
+                                  const uint32_t *triangles,
                                   size_t triangle_count,
                                   const float *masses,
                                   struct SlodClothId *out_cloth);
@@ -1184,20 +1184,22 @@ SlodResult slod_cloth_vertex_count(const struct SlodWorld *world,
                                    size_t *out_count);
 
 /**
- * Copies the position of every simulated node (float[3] each) to `out`.
+ * Copies the position of every simulated node to `out`, 3 floats each (x, y, z; stride 3
+ * floats).
  *
  * Entry i is simulated node i; `slod_cloth_node_ids` gives its hierarchy node in the same order.
- * Buffer: copy-out (the header's rule); `cap` and `*out_len` count nodes (the count changes
+ * Buffer: copy-out (the header's rule); `cap` and `*out_len` count nodes (`out` holds
+ * `3 × cap` floats) (the count changes
  * when the cut does). Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`,
  * `SLOD_RESULT_BUFFER_TOO_SMALL`, `SLOD_RESULT_NULL_ARGUMENT`.
  *
  * # Safety
- * `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
- * valid for a write.
+ * `world` NULL or a live world; `out` valid for `3 × cap` float writes (NULL if `cap` is 0);
+ * `out_len` valid for a write.
  */
 SlodResult slod_cloth_node_positions(const struct SlodWorld *world,
                                      struct SlodClothId cloth,
-                                     float (*out)[3],
+                                     float *out,
                                      size_t cap,
                                      size_t *out_len);
 
@@ -1252,22 +1254,24 @@ SlodResult slod_cloth_node_info(const struct SlodWorld *world,
 
 /**
  * Reconstructs every finest-level vertex from the simulated nodes and copies the positions
- * (float[3] each, in vertex index order) to `out`: what a renderer draws.
+ * (3 floats each: x, y, z, stride 3 floats, in vertex index order) to `out`: what a renderer
+ * draws.
  *
  * A query: reading the vertices never changes what is simulated (two identical cloths stay
  * bit-identical whether or not either is read), and pinned vertices are exactly at their
  * anchors at every cut.
- * Buffer: copy-out, counted in vertices (`slod_cloth_vertex_count`; fixed for the cloth's life).
+ * Buffer: copy-out, counted in vertices (`slod_cloth_vertex_count`; fixed for the cloth's life;
+ * `out` holds `3 × cap` floats).
  * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_BUFFER_TOO_SMALL`
  * (checked before any work).
  *
  * # Safety
- * `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
- * valid for a write.
+ * `world` NULL or a live world; `out` valid for `3 × cap` float writes (NULL if `cap` is 0);
+ * `out_len` valid for a write.
  */
 SlodResult slod_cloth_vertex_positions(const struct SlodWorld *world,
                                        struct SlodClothId cloth,
-                                       float (*out)[3],
+                                       float *out,
                                        size_t cap,
                                        size_t *out_len);
 
@@ -1563,8 +1567,8 @@ SlodResult slod_character_set_speed(struct SlodWorld *world,
                                     float speed);
 
 /**
- * Copies a character's bone matrices in skeleton model space (one float[16] per bone,
- * column-major: element `col * 4 + row`, translation in elements 12..14) to `out`.
+ * Copies a character's bone matrices in skeleton model space (16 floats per bone, stride 16
+ * floats, column-major: element `col * 4 + row`, translation in elements 12..14) to `out`.
  *
  * Add the character's position for world space. Bone order is the rig's (parents first).
  * Buffer: copy-out counted in matrices (`SlodRigInfo::bones`); the values change at the next
@@ -1572,18 +1576,18 @@ SlodResult slod_character_set_speed(struct SlodWorld *world,
  * `SLOD_RESULT_BUFFER_TOO_SMALL`.
  *
  * # Safety
- * `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
- * valid for a write.
+ * `world` NULL or a live world; `out` valid for `16 × cap` float writes (NULL if `cap` is 0);
+ * `out_len` valid for a write.
  */
 SlodResult slod_character_model_matrices(const struct SlodWorld *world,
                                          struct SlodCharacterId character,
-                                         float (*out)[16],
+                                         float *out,
                                          size_t cap,
                                          size_t *out_len);
 
 /**
  * Copies a character's skinning matrices for skin `skin` (model matrix × inverse bind matrix
- * per joint, skeleton model space, float[16] column-major as in
+ * per joint, skeleton model space, 16 floats column-major as in
  * `slod_character_model_matrices`) to `out`: what a skinning shader takes.
  *
  * Buffer: copy-out counted in matrices (`slod_rig_skin_joint_count`). Threads: reads the world
@@ -1591,13 +1595,13 @@ SlodResult slod_character_model_matrices(const struct SlodWorld *world,
  * `SLOD_RESULT_BUFFER_TOO_SMALL`.
  *
  * # Safety
- * `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
- * valid for a write.
+ * `world` NULL or a live world; `out` valid for `16 × cap` float writes (NULL if `cap` is 0);
+ * `out_len` valid for a write.
  */
 SlodResult slod_character_skinning_matrices(const struct SlodWorld *world,
                                             struct SlodCharacterId character,
                                             uint32_t skin,
-                                            float (*out)[16],
+                                            float *out,
                                             size_t cap,
                                             size_t *out_len);
 

@@ -142,8 +142,8 @@ public:
                       const std::vector<float> &masses = {}) {
         SlodClothId id;
         check(slod_cloth_create_mesh(
-                  world.get(), &desc, reinterpret_cast<const float(*)[3]>(positions.data()),
-                  positions.size(), reinterpret_cast<const uint32_t(*)[3]>(triangles.data()),
+                  world.get(), &desc, positions.empty() ? nullptr : positions[0].data(),
+                  positions.size(), triangles.empty() ? nullptr : triangles[0].data(),
                   triangles.size(), masses.empty() ? nullptr : masses.data(), &id),
               "slod_cloth_create_mesh");
         return Cloth(world.share(), id);
@@ -205,8 +205,8 @@ public:
         return info;
     }
     std::vector<Vec3> node_positions() const {
-        return detail::fetch<Vec3, float[3]>(
-            [&](float(*o)[3], size_t c, size_t *n) {
+        return detail::fetch<Vec3, float>(
+            [&](float *o, size_t c, size_t *n) {
                 return slod_cloth_node_positions(world_.get(), id_, o, c, n);
             },
             "slod_cloth_node_positions");
@@ -230,7 +230,7 @@ public:
     std::vector<Vec3> vertex_positions() const {
         std::vector<Vec3> v(vertex_count());
         size_t n = 0;
-        check(slod_cloth_vertex_positions(world_.get(), id_, reinterpret_cast<float(*)[3]>(v.data()),
+        check(slod_cloth_vertex_positions(world_.get(), id_, v.empty() ? nullptr : v[0].data(),
                                           v.size(), &n),
               "slod_cloth_vertex_positions");
         v.resize(n);
@@ -387,16 +387,16 @@ public:
     }
     /// Bone matrices in skeleton model space, column-major.
     std::vector<Mat4> model_matrices(SlodCharacterId c) const {
-        return detail::fetch<Mat4, float[16]>(
-            [&](float(*o)[16], size_t cap, size_t *n) {
+        return detail::fetch<Mat4, float>(
+            [&](float *o, size_t cap, size_t *n) {
                 return slod_character_model_matrices(world_.get(), c, o, cap, n);
             },
             "slod_character_model_matrices");
     }
     /// Skinning matrices of skin `skin` (model × inverse bind), column-major.
     std::vector<Mat4> skinning_matrices(SlodCharacterId c, uint32_t skin) const {
-        return detail::fetch<Mat4, float[16]>(
-            [&](float(*o)[16], size_t cap, size_t *n) {
+        return detail::fetch<Mat4, float>(
+            [&](float *o, size_t cap, size_t *n) {
                 return slod_character_skinning_matrices(world_.get(), c, skin, o, cap, n);
             },
             "slod_character_skinning_matrices");

@@ -260,9 +260,9 @@ fn check_world(m: &Model) {
         assert_eq!(st.vertices as usize, c.vertices);
         assert_eq!(st.hierarchy_nodes, c.hierarchy_nodes);
         assert!(st.interpolations <= st.nodes);
-        let pos: Vec<[f32; 3]> = fetch("node positions", |o, cap, n| {
+        let pos: Vec<[f32; 3]> = fetch("node positions", |o: *mut [f32; 3], cap, n| {
             // SAFETY: `o` is NULL with cap 0 or valid for `cap` writes; `n` valid.
-            unsafe { slod_cloth_node_positions(w, c.id, o, cap, n) }
+            unsafe { slod_cloth_node_positions(w, c.id, o.cast(), cap, n) }
         });
         assert_eq!(pos.len(), st.nodes as usize);
         assert!(
@@ -288,9 +288,9 @@ fn check_world(m: &Model) {
             );
             assert_eq!(info.on_cut, 1, "active node {a} is on the cut");
         }
-        let verts: Vec<[f32; 3]> = fetch("vertex positions", |o, cap, n| {
+        let verts: Vec<[f32; 3]> = fetch("vertex positions", |o: *mut [f32; 3], cap, n| {
             // SAFETY: as above.
-            unsafe { slod_cloth_vertex_positions(w, c.id, o, cap, n) }
+            unsafe { slod_cloth_vertex_positions(w, c.id, o.cast(), cap, n) }
         });
         assert_eq!(verts.len(), c.vertices);
         assert!(
@@ -319,9 +319,9 @@ fn check_world(m: &Model) {
     }
     for (ch, crowd) in &m.characters {
         let bones = m.crowds.iter().find(|c| c.0 == *crowd).unwrap().1.bones;
-        let mats: Vec<[f32; 16]> = fetch("model matrices", |o, cap, n| {
+        let mats: Vec<[f32; 16]> = fetch("model matrices", |o: *mut [f32; 16], cap, n| {
             // SAFETY: as above.
-            unsafe { slod_character_model_matrices(w, *ch, o, cap, n) }
+            unsafe { slod_character_model_matrices(w, *ch, o.cast(), cap, n) }
         });
         assert_eq!(mats.len(), bones as usize);
         assert!(
@@ -550,7 +550,9 @@ fn random_call(rng: &mut Rng, m: &mut Model, other: &Model, assets: &Assets, ste
             };
             // SAFETY: every pointer is NULL or valid for the count passed, except the huge
             // vertex_count, which slod refuses before reading anything.
-            let r = unsafe { slod_cloth_create_mesh(w, &d, pp, vc, t.as_ptr(), tc, mp, &mut out) };
+            let r = unsafe {
+                slod_cloth_create_mesh(w, &d, pp.cast(), vc, t.as_ptr().cast(), tc, mp, &mut out)
+            };
             if fault {
                 expect_err(r, bad, ctx);
             } else {
@@ -842,8 +844,8 @@ fn random_call(rng: &mut Rng, m: &mut Model, other: &Model, assets: &Assets, ste
                 // cap within `buf`, or pass NULL); `n` NULL or valid.
                 unsafe {
                     match which {
-                        0 => slod_cloth_node_positions(w, id, out, cap, n),
-                        _ => slod_cloth_vertex_positions(w, id, out, cap, n),
+                        0 => slod_cloth_node_positions(w, id, out.cast(), cap, n),
+                        _ => slod_cloth_vertex_positions(w, id, out.cast(), cap, n),
                     }
                 }
             };
@@ -1216,9 +1218,9 @@ fn random_call(rng: &mut Rng, m: &mut Model, other: &Model, assets: &Assets, ste
             } else if arg_fault {
                 expect_err(r, "skin", ctx);
             } else if info.is_some_and(|i| i.skins > 0) {
-                let mats: Vec<[f32; 16]> = fetch(ctx, |o, cap, n| {
+                let mats: Vec<[f32; 16]> = fetch(ctx, |o: *mut [f32; 16], cap, n| {
                     // SAFETY: `o` NULL with cap 0 or valid for `cap` writes; `n` valid.
-                    unsafe { slod_character_skinning_matrices(w, id, 0, o, cap, n) }
+                    unsafe { slod_character_skinning_matrices(w, id, 0, o.cast(), cap, n) }
                 });
                 assert!(mats.iter().flatten().all(|x| x.is_finite()));
             }
@@ -1375,7 +1377,7 @@ fn twin_cloths_stay_bit_identical_whatever_is_read() {
                             slod_cloth_vertex_positions(
                                 world,
                                 a,
-                                verts.as_mut_ptr(),
+                                verts.as_mut_ptr().cast(),
                                 verts.len(),
                                 &mut n,
                             ),
@@ -1392,8 +1394,8 @@ fn twin_cloths_stay_bit_identical_whatever_is_read() {
                     }
                 }
                 let bits = |c| {
-                    let p: Vec<[f32; 3]> = fetch("nodes", |o, cap, n| {
-                        slod_cloth_node_positions(world, c, o, cap, n)
+                    let p: Vec<[f32; 3]> = fetch("nodes", |o: *mut [f32; 3], cap, n| {
+                        slod_cloth_node_positions(world, c, o.cast(), cap, n)
                     });
                     p.iter().map(|v| v.map(f32::to_bits)).collect::<Vec<_>>()
                 };
@@ -1406,4 +1408,36 @@ fn twin_cloths_stay_bit_identical_whatever_is_read() {
             slod_world_destroy(world);
         }
     }
+}
+
+/// The random-call test's short form again, under valgrind's memcheck: memory errors and
+/// definite leaks fail it (the test harness's own threads leave "possibly lost" blocks at exit,
+/// so those do not count here). The same binary re-runs that one test in a child process with
+/// fewer steps. Skipped with a note where valgrind is missing, except under CI, where it must run.
+#[test]
+fn random_call_sequences_are_memcheck_clean() {
+    if std::env::var_os("SLOD_UNDER_MEMCHECK").is_some() {
+        return; // the child runs only the random-call test itself
+    }
+    let Some(mut cmd) = slod_tests::native::memcheck_failing_on("definite") else {
+        return;
+    };
+    let exe = std::env::current_exe().expect("the test binary's path");
+    cmd.arg(exe)
+        .args([
+            "--exact",
+            "random_call_sequences_never_crash_and_always_report",
+            "--test-threads",
+            "1",
+            "--nocapture",
+        ])
+        .env("SLOD_UNDER_MEMCHECK", "1")
+        .env("SLOD_RANDOM_STEPS", "600")
+        .env("SLOD_RANDOM_SEEDS", "2");
+    let out = slod_tests::native::run(&mut cmd);
+    let stdout = slod_tests::native::assert_memcheck_clean(&out);
+    assert!(
+        stdout.contains("1 passed"),
+        "the random-call test did not run under memcheck:\n{stdout}"
+    );
 }

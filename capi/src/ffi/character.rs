@@ -223,8 +223,8 @@ pub unsafe extern "C" fn slod_character_set_speed(
     })
 }
 
-/// Copies a character's bone matrices in skeleton model space (one float[16] per bone,
-/// column-major: element `col * 4 + row`, translation in elements 12..14) to `out`.
+/// Copies a character's bone matrices in skeleton model space (16 floats per bone, stride 16
+/// floats, column-major: element `col * 4 + row`, translation in elements 12..14) to `out`.
 ///
 /// Add the character's position for world space. Bone order is the rig's (parents first).
 /// Buffer: copy-out counted in matrices (`SlodRigInfo::bones`); the values change at the next
@@ -232,16 +232,19 @@ pub unsafe extern "C" fn slod_character_set_speed(
 /// `SLOD_RESULT_BUFFER_TOO_SMALL`.
 ///
 /// # Safety
-/// `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
-/// valid for a write.
+/// `world` NULL or a live world; `out` valid for `16 × cap` float writes (NULL if `cap` is 0);
+/// `out_len` valid for a write.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn slod_character_model_matrices(
     world: *const SlodWorld,
     character: SlodCharacterId,
-    out: *mut [f32; 16],
+    out: *mut f32,
     cap: usize,
     out_len: *mut usize,
 ) -> SlodResult {
+    // `[f32; 16]` has the size of 16 floats and the alignment of one: `16 × cap` floats are
+    // `cap` matrices.
+    let out = out.cast::<[f32; 16]>();
     boundary(|| {
         // SAFETY: caller contract: NULL or a live world.
         let world = unsafe { arg(world, "world") }?;
@@ -259,7 +262,7 @@ thread_local! {
 }
 
 /// Copies a character's skinning matrices for skin `skin` (model matrix × inverse bind matrix
-/// per joint, skeleton model space, float[16] column-major as in
+/// per joint, skeleton model space, 16 floats column-major as in
 /// `slod_character_model_matrices`) to `out`: what a skinning shader takes.
 ///
 /// Buffer: copy-out counted in matrices (`slod_rig_skin_joint_count`). Threads: reads the world
@@ -267,17 +270,20 @@ thread_local! {
 /// `SLOD_RESULT_BUFFER_TOO_SMALL`.
 ///
 /// # Safety
-/// `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
-/// valid for a write.
+/// `world` NULL or a live world; `out` valid for `16 × cap` float writes (NULL if `cap` is 0);
+/// `out_len` valid for a write.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn slod_character_skinning_matrices(
     world: *const SlodWorld,
     character: SlodCharacterId,
     skin: u32,
-    out: *mut [f32; 16],
+    out: *mut f32,
     cap: usize,
     out_len: *mut usize,
 ) -> SlodResult {
+    // `[f32; 16]` has the size of 16 floats and the alignment of one: `16 × cap` floats are
+    // `cap` matrices.
+    let out = out.cast::<[f32; 16]>();
     boundary(|| {
         // SAFETY: caller contract: NULL or a live world.
         let world = unsafe { arg(world, "world") }?;

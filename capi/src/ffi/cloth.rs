@@ -416,8 +416,8 @@ pub unsafe extern "C" fn slod_cloth_create_grid(
 
 /// Creates a cloth from the host's own triangle mesh and writes its id.
 ///
-/// `positions` holds `vertex_count` rest positions (float[3] each), `triangles` holds
-/// `triangle_count` index triples, `masses` is NULL (each vertex gets a third of its triangles'
+/// `positions` holds `vertex_count` rest positions as 3 floats each (x, y, z; stride 3
+/// floats), `triangles` holds `triangle_count` index triples (stride 3 indices), `masses` is NULL (each vertex gets a third of its triangles'
 /// area times 1 kg/m²) or holds `vertex_count` masses (finite, > 0). The mesh must be
 /// connected and use every vertex. Uses `desc->solver` and `desc->initial_level`; the grid
 /// fields are ignored. Vertex indices are the host's: pins, reconstructed positions and
@@ -428,16 +428,16 @@ pub unsafe extern "C" fn slod_cloth_create_grid(
 /// argument (`positions`, `triangles`, `masses`, `vertex_count`, a desc field); nothing is created.
 ///
 /// # Safety
-/// `world` NULL or a live world; `desc` NULL or valid; `positions` valid for `vertex_count`
-/// reads, `triangles` for `triangle_count` reads, `masses` NULL or valid for `vertex_count`
+/// `world` NULL or a live world; `desc` NULL or valid; `positions` valid for `3 × vertex_count`
+/// float reads, `triangles` for `3 × triangle_count` index reads, `masses` NULL or valid for `vertex_count`
 /// reads; `out_cloth` NULL or valid for a write.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn slod_cloth_create_mesh(
     world: *mut SlodWorld,
     desc: *const SlodClothDesc,
-    positions: *const [f32; 3],
+    positions: *const f32,
     vertex_count: usize,
-    triangles: *const [u32; 3],
+    triangles: *const u32,
     triangle_count: usize,
     masses: *const f32,
     out_cloth: *mut SlodClothId,
@@ -461,10 +461,13 @@ pub unsafe extern "C" fn slod_cloth_create_mesh(
                 format!("{triangle_count} is outside [1, {SLOD_MAX_CLOTH_TRIANGLES}]"),
             ));
         }
-        // SAFETY: caller contract: valid for `vertex_count` reads (NULL checked inside).
-        let positions = unsafe { slice(positions, vertex_count, "positions") }?;
-        // SAFETY: caller contract: valid for `triangle_count` reads (NULL checked inside).
-        let triangles = unsafe { slice(triangles, triangle_count, "triangles") }?;
+        // SAFETY: caller contract: valid for `3 × vertex_count` float reads (NULL checked
+        // inside); `[f32; 3]` has the size of 3 floats and the alignment of one, so the same
+        // memory read as `vertex_count` triples is the same reads.
+        let positions = unsafe { slice(positions.cast::<[f32; 3]>(), vertex_count, "positions") }?;
+        // SAFETY: as above, for `3 × triangle_count` u32 reads as `[u32; 3]` triples.
+        let triangles =
+            unsafe { slice(triangles.cast::<[u32; 3]>(), triangle_count, "triangles") }?;
         let masses = if masses.is_null() {
             None
         } else {

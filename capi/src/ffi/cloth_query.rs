@@ -210,24 +210,29 @@ pub unsafe extern "C" fn slod_cloth_vertex_count(
     unsafe { count(world, cloth, out_count, |c| c.hierarchy().vertex_count()) }
 }
 
-/// Copies the position of every simulated node (float[3] each) to `out`.
+/// Copies the position of every simulated node to `out`, 3 floats each (x, y, z; stride 3
+/// floats).
 ///
 /// Entry i is simulated node i; `slod_cloth_node_ids` gives its hierarchy node in the same order.
-/// Buffer: copy-out (the header's rule); `cap` and `*out_len` count nodes (the count changes
+/// Buffer: copy-out (the header's rule); `cap` and `*out_len` count nodes (`out` holds
+/// `3 × cap` floats) (the count changes
 /// when the cut does). Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`,
 /// `SLOD_RESULT_BUFFER_TOO_SMALL`, `SLOD_RESULT_NULL_ARGUMENT`.
 ///
 /// # Safety
-/// `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
-/// valid for a write.
+/// `world` NULL or a live world; `out` valid for `3 × cap` float writes (NULL if `cap` is 0);
+/// `out_len` valid for a write.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn slod_cloth_node_positions(
     world: *const SlodWorld,
     cloth: SlodClothId,
-    out: *mut [f32; 3],
+    out: *mut f32,
     cap: usize,
     out_len: *mut usize,
 ) -> SlodResult {
+    // `[f32; 3]` has the size of 3 floats and the alignment of one: `3 × cap` floats are `cap`
+    // triples.
+    let out = out.cast::<[f32; 3]>();
     boundary(|| {
         // SAFETY: caller contract: NULL or a live world.
         let world = unsafe { arg(world, "world") }?;
@@ -334,26 +339,31 @@ pub unsafe extern "C" fn slod_cloth_node_info(
 }
 
 /// Reconstructs every finest-level vertex from the simulated nodes and copies the positions
-/// (float[3] each, in vertex index order) to `out`: what a renderer draws.
+/// (3 floats each: x, y, z, stride 3 floats, in vertex index order) to `out`: what a renderer
+/// draws.
 ///
 /// A query: reading the vertices never changes what is simulated (two identical cloths stay
 /// bit-identical whether or not either is read), and pinned vertices are exactly at their
 /// anchors at every cut.
-/// Buffer: copy-out, counted in vertices (`slod_cloth_vertex_count`; fixed for the cloth's life).
+/// Buffer: copy-out, counted in vertices (`slod_cloth_vertex_count`; fixed for the cloth's life;
+/// `out` holds `3 × cap` floats).
 /// Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_BUFFER_TOO_SMALL`
 /// (checked before any work).
 ///
 /// # Safety
-/// `world` NULL or a live world; `out` valid for `cap` writes (NULL if `cap` is 0); `out_len`
-/// valid for a write.
+/// `world` NULL or a live world; `out` valid for `3 × cap` float writes (NULL if `cap` is 0);
+/// `out_len` valid for a write.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn slod_cloth_vertex_positions(
     world: *const SlodWorld,
     cloth: SlodClothId,
-    out: *mut [f32; 3],
+    out: *mut f32,
     cap: usize,
     out_len: *mut usize,
 ) -> SlodResult {
+    // `[f32; 3]` has the size of 3 floats and the alignment of one: `3 × cap` floats are `cap`
+    // triples.
+    let out = out.cast::<[f32; 3]>();
     boundary(|| {
         // SAFETY: caller contract: NULL or a live world.
         let world = unsafe { arg(world, "world") }?;

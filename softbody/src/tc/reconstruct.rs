@@ -177,24 +177,31 @@ impl TreeCutSoftBody {
                 }
             }
             ReconstructionMode::Smooth => {
-                // Support radius per particle: its shortest link (rest distance to a neighbour).
-                let support: Vec<f32> = (0..self.particle_node.len())
+                // Per particle, contiguous: rest position and the squared support radius (its
+                // shortest link's rest length), then each neighbour's rest offset is compared
+                // squared: no square root or division per vertex and neighbour.
+                let n = self.particle_node.len();
+                let rest: Vec<Vec3> = self
+                    .particle_node
+                    .iter()
+                    .map(|&node| h.rest_position(node))
+                    .collect();
+                let support_sq: Vec<f32> = (0..n)
                     .map(|p| {
-                        let rest = h.rest_position(self.particle_node[p]);
                         self.body
                             .neighbours(ParticleId::new(p))
-                            .map(|q| rest.distance(h.rest_position(self.particle_node[q.index()])))
+                            .map(|q| rest[p].distance_squared(rest[q.index()]))
                             .fold(f32::INFINITY, f32::min)
                     })
                     .collect();
                 for (p, &node) in self.particle_node.iter().enumerate() {
-                    let (x, rest) = (pos[p].truncate(), h.rest_position(node));
+                    let x = pos[p].truncate();
                     for &v in h.vertices(node) {
                         let rv = rest_of(v);
                         // The covering particle always has weight 1 at its own rest position
                         // and at least a floor elsewhere, so the blend is well defined.
-                        let own = rv - rest;
-                        let mut w_sum = kernel(own.length(), support[p]).max(1e-3);
+                        let own = rv - rest[p];
+                        let mut w_sum = kernel_sq(own.length_squared(), support_sq[p]).max(1e-3);
                         let rigid = if own == Vec3::ZERO {
                             x
                         } else {
@@ -203,10 +210,13 @@ impl TreeCutSoftBody {
                         let mut acc = rigid * w_sum;
                         for q in self.body.neighbours(ParticleId::new(p)) {
                             let qi = q.index();
-                            let q_rest = h.rest_position(self.particle_node[qi]);
-                            let w = kernel((rv - q_rest).length(), support[qi].max(support[p]));
+                            let offset = rv - rest[qi];
+                            let w = kernel_sq(
+                                offset.length_squared(),
+                                support_sq[qi].max(support_sq[p]),
+                            );
                             if w > 0.0 {
-                                acc += (pos[qi].truncate() + rot.get(qi) * (rv - q_rest)) * w;
+                                acc += (pos[qi].truncate() + rot.get(qi) * offset) * w;
                                 w_sum += w;
                             }
                         }
@@ -251,14 +261,14 @@ impl TreeCutSoftBody {
     }
 }
 
-/// Smooth compact kernel: 1 at 0, 0 from `support` on.
+/// Smooth compact kernel `(1 − (d/s)²)²` from the squared distance and squared support: 1 at 0,
+/// 0 from the support on.
 #[inline]
-fn kernel(d: f32, support: f32) -> f32 {
-    let t = d / support;
-    if t >= 1.0 {
+fn kernel_sq(d_sq: f32, support_sq: f32) -> f32 {
+    if d_sq >= support_sq {
         0.0
     } else {
-        let s = 1.0 - t * t;
+        let s = 1.0 - d_sq / support_sq;
         s * s
     }
 }

@@ -1,9 +1,14 @@
 //! Deformation, the feature the paper's BSWDF lacks (see [`super::Feedback`]): each
-//! particle's mean relative link length change `|ℓ/ℓ₀ − 1|`, weighted by link blend weight and
-//! by whether the particle is in view, added to its motion salience.
+//! particle's mean relative link length change `|ℓ/ℓ₀ − 1|`, weighted by link blend weight,
+//! added to its motion salience.
+//!
+//! Unlike motion, strain is not weighted by the frustum: a strained region carries the load
+//! that shapes the whole cloth's motion, so coarsening it where nobody looks (pinned corners
+//! off-screen) changes what the visible part does. Measured on the off-screen perception scene
+//! (corners out of view), frustum-weighted strain gave 14.2 px RMS on screen at 30% of the
+//! nodes and unweighted strain 8.2 px; the other scenes did not change.
 
 use glam::Vec3;
-use salience::{BswdfParams, View};
 use softbody::TreeCutSoftBody;
 
 /// Reused per-particle sums of link strain and link weight.
@@ -14,15 +19,13 @@ pub(super) struct Strain {
 }
 
 impl Strain {
-    /// Adds `weight ×` each particle's mean link strain (times its view factor) to `salience`.
+    /// Adds `weight ×` each particle's mean link strain to `salience`.
     pub(super) fn add_to(
         &mut self,
         body: &TreeCutSoftBody,
         positions: &[Vec3],
         salience: &mut [f32],
-        params: &BswdfParams,
         weight: f32,
-        view: &View,
     ) {
         let n = positions.len();
         self.sums.clear();
@@ -38,16 +41,10 @@ impl Strain {
                 self.sums[p].1 += l.weight;
             }
         }
-        for ((s, &(sum, w)), &x) in salience.iter_mut().zip(&self.sums).zip(positions) {
-            if w <= 0.0 {
-                continue;
+        for (s, &(sum, w)) in salience.iter_mut().zip(&self.sums) {
+            if w > 0.0 {
+                *s += weight * (sum / w);
             }
-            let seen = if view.is_in_view(x, params.view_margin) {
-                1.0
-            } else {
-                params.outside_view_weight
-            };
-            *s += weight * (sum / w) * seen;
         }
     }
 }

@@ -36,7 +36,7 @@ pub use settings::{ClothBudget, FeedbackSettings, PriorityModel, compression_nod
 /// strain as a stretched pattern, and a coarse node misrepresents exactly those regions (the
 /// missing degrees of freedom make the material effectively stiffer). So each node also gets
 /// a deformation term, its links' mean relative length change times
-/// [`FeedbackSettings::deformation_weight`], weighted by whether it is in view and added to
+/// [`FeedbackSettings::deformation_weight`], not weighted by the frustum (see `deformation`), and added to
 /// the motion salience (so the sum may exceed 1; it is a priority, not a probability). With
 /// it the feedback cut
 /// has a lower error than uniform and random cuts (test
@@ -183,9 +183,7 @@ impl Feedback {
                 body,
                 &self.positions,
                 &mut self.salience,
-                &self.settings.params,
                 self.settings.deformation_weight,
-                seen,
             );
         }
         let error_bound = match self.settings.budget {
