@@ -471,7 +471,7 @@ pub(crate) fn perception_error_cost(
     let path = dir.join("perception_error_cost.png");
     let cols = 4usize;
     let rows = section.scenes.len().div_ceil(cols).max(1);
-    let size = (1600, 60 + 420 * rows as u32);
+    let size = (1780, 60 + 420 * rows as u32);
     let strategies: Vec<&str> = section
         .scenes
         .iter()
@@ -488,7 +488,8 @@ pub(crate) fn perception_error_cost(
             .titled(
                 &format!(
                     "On-screen error against cost per frame ({} px high view, {} deg): uniform cuts \
-                     (black line) and each strategy at {:.0}% of the nodes",
+                     (black line), the reference (triangle, 0 px) and each strategy at {:.0}% of \
+                     the nodes",
                     section.viewport_height_px,
                     section.fov_y_deg,
                     section.compression * 100.0
@@ -496,7 +497,30 @@ pub(crate) fn perception_error_cost(
                 (font::FAMILY, 22),
             )
             .map_err(err)?;
-        let panels = area.split_evenly((rows, cols));
+        // One legend for every panel, in a column of its own, so it hides no point.
+        let (grid, key) = area.split_horizontally(1600);
+        let style = TextStyle::from((font::FAMILY, 16).into_font()).color(&BLACK);
+        let mut y = 60;
+        key.draw(&PathElement::new([(10, y), (30, y)], BLACK.stroke_width(2)))
+            .map_err(err)?;
+        key.draw_text("uniform cuts", &style, (38, y - 9))
+            .map_err(err)?;
+        y += 26;
+        key.draw(&TriangleMarker::new((20, y), 7, BLACK.filled()))
+            .map_err(err)?;
+        key.draw_text("reference (0 px)", &style, (38, y - 9))
+            .map_err(err)?;
+        for (k, name) in strategies.iter().enumerate() {
+            y += 26;
+            key.draw(&Circle::new((20, y), 6, colour(k).filled()))
+                .map_err(err)?;
+            key.draw_text(name, &style, (38, y - 9)).map_err(err)?;
+        }
+        y += 26;
+        key.draw(&PathElement::new([(10, y), (30, y)], BLACK.stroke_width(1)))
+            .map_err(err)?;
+        key.draw_text("1 pixel", &style, (38, y - 9)).map_err(err)?;
+        let panels = grid.split_evenly((rows, cols));
         for (scene, panel) in section.scenes.iter().zip(panels.iter()) {
             let horizon = scene.chaotic.then_some(section.horizon_steps);
             let runs: Vec<_> = scene
@@ -542,10 +566,13 @@ pub(crate) fn perception_error_cost(
                 .axis_desc_style((font::FAMILY, 14))
                 .draw()
                 .map_err(err)?;
+            // The reduced uniform cuts as a line; the reference (0 px) as its own marker at the
+            // bottom of the log scale.
             let curve: Vec<(f64, f64)> = scene
                 .uniform_curve
                 .iter()
-                .map(|p| (p.ms_per_step, p.screen_p99_px.max(FLOOR)))
+                .filter(|p| p.screen_p99_px > 0.0)
+                .map(|p| (p.ms_per_step, p.screen_p99_px))
                 .collect();
             chart
                 .draw_series(LineSeries::new(curve.clone(), BLACK.stroke_width(2)))
@@ -555,6 +582,18 @@ pub(crate) fn perception_error_cost(
                     curve
                         .iter()
                         .map(|&p| Cross::new(p, 5, BLACK.stroke_width(2))),
+                )
+                .map_err(err)?;
+            let full: Vec<(f64, f64)> = scene
+                .uniform_curve
+                .iter()
+                .filter(|p| p.screen_p99_px <= 0.0)
+                .map(|p| (p.ms_per_step, FLOOR * 1.3))
+                .collect();
+            chart
+                .draw_series(
+                    full.iter()
+                        .map(|&p| TriangleMarker::new(p, 8, BLACK.filled())),
                 )
                 .map_err(err)?;
             chart
@@ -574,18 +613,8 @@ pub(crate) fn perception_error_cost(
                 let p = (r.ms_per_step, r.screen_p99_px.max(FLOOR));
                 chart
                     .draw_series(std::iter::once(Circle::new(p, 6, col.filled())))
-                    .map_err(err)?
-                    .label(r.strategy)
-                    .legend(move |(x, y)| Circle::new((x + 8, y), 5, col.filled()));
+                    .map_err(err)?;
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .label_font((font::FAMILY, 12))
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .draw()
-                .map_err(err)?;
         }
         Ok(())
     })

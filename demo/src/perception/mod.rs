@@ -74,8 +74,6 @@ pub(crate) struct Movie {
     pub(crate) scene: Scene,
     /// Vertices per side (the scene is a square grid).
     pub(crate) side: usize,
-    /// Levels of the hierarchy.
-    pub(crate) levels: u32,
     /// The frames.
     pub(crate) frames: Vec<MovieFrame>,
     /// Seconds of simulation between frames.
@@ -170,7 +168,6 @@ fn record_movie(scene: &Scene, plan: &PerceptionPlan) -> Result<Movie, DemoError
     Ok(Movie {
         scene: scene.clone(),
         side: (full as f64).sqrt().round() as usize,
-        levels: h.level_count(),
         frames,
         frame_seconds: every as f32 * scene.body.solver.dt,
     })
@@ -244,8 +241,8 @@ fn render_runs(outcomes: &[SceneOutcome], config: &PerceptionConfig) -> String {
 /// Equal error: feedback's cost against a uniform cut's at the same p99.
 fn render_equal_error(section: &PerceptionSection, config: &PerceptionConfig) -> String {
     let mut t = Table::new(
-        "Perception: equal error (uniform cost interpolated at feedback's p99; chaotic scenes over \
-         short horizons)",
+        "Perception: equal error (the cheapest uniform cut, interpolated, at feedback's p99; \
+         chaotic scenes over short horizons)",
         &[
             "scene",
             "p99 px",

@@ -1,7 +1,7 @@
 //! The perception section's moving picture: one view-dependent scene through its own moving
 //! camera, the full-resolution reference (left) and the feedback loop's cloth (right) side by
 //! side, the LOD cloth coloured by the level of the node that simulates each part (finest dark
-//! blue, coarser towards yellow), as an animated PNG (APNG, written with `png`): LOD is judged in
+//! purple, then blue, teal, green, yellow), as an animated PNG (APNG, written with `png`): LOD is judged in
 //! motion. Drawn by the demo's rasteriser ([`super::raster`]).
 
 use std::path::{Path, PathBuf};
@@ -22,8 +22,10 @@ const TITLE_H: u32 = 56;
 const BACKGROUND: Vec3 = Vec3::new(0.97, 0.97, 0.96);
 const CLOTH: Vec3 = Vec3::new(0.36, 0.56, 0.86);
 
-/// Colour of level `level` of `levels` (viridis-like ramp: finest dark blue, coarsest yellow).
-pub(crate) fn level_colour(level: u32, levels: u32) -> Vec3 {
+/// Colour of level `level` (0 = finest): one clear step of a viridis-like ramp per level (dark
+/// purple, blue, teal, green), yellow for level 4 and coarser, so the first levels, where a
+/// budget is spent, stay distinguishable.
+pub(crate) fn level_colour(level: u32) -> Vec3 {
     const RAMP: [Vec3; 5] = [
         Vec3::new(0.27, 0.00, 0.33),
         Vec3::new(0.23, 0.32, 0.55),
@@ -31,9 +33,7 @@ pub(crate) fn level_colour(level: u32, levels: u32) -> Vec3 {
         Vec3::new(0.37, 0.79, 0.38),
         Vec3::new(0.99, 0.91, 0.15),
     ];
-    let t = level as f32 / levels.saturating_sub(1).max(1) as f32 * (RAMP.len() - 1) as f32;
-    let i = (t.floor() as usize).min(RAMP.len() - 2);
-    RAMP[i].lerp(RAMP[i + 1], t - i as f32)
+    RAMP[(level as usize).min(RAMP.len() - 1)]
 }
 
 /// A square grid surface of `side` vertices through `view` (scaled to a panel), each vertex
@@ -99,10 +99,7 @@ pub(crate) fn perception_movie(movie: &Movie, dir: &Path) -> Result<PathBuf, Dem
     for f in &movie.frames {
         let view = movie.scene.view(f.step)?;
         let reference = panel(&view, &f.reference, movie.side, &|_| CLOTH);
-        let levels = movie.levels;
-        let lod = panel(&view, &f.lod, movie.side, &|k| {
-            level_colour(f.levels[k], levels)
-        });
+        let lod = panel(&view, &f.lod, movie.side, &|k| level_colour(f.levels[k]));
         let mut image = Image::new(width, height, [255, 255, 255]);
         let mut left = reference;
         text::draw_captions(
@@ -117,10 +114,7 @@ pub(crate) fn perception_movie(movie: &Movie, dir: &Path) -> Result<PathBuf, Dem
         let mut right = lod;
         text::draw_captions(
             &mut right,
-            &[Caption::sub(format!(
-                "feedback loop, {} nodes (colour: level, finest dark)",
-                f.nodes
-            ))],
+            &[Caption::sub(format!("feedback loop, {} nodes", f.nodes))],
             false,
         )
         .map_err(|e| DemoError::draw(&path, e))?;
@@ -133,7 +127,8 @@ pub(crate) fn perception_movie(movie: &Movie, dir: &Path) -> Result<PathBuf, Dem
                 movie.scene.name,
                 f.step + 1
             ),
-            "reference (left) and level of detail (right), through the scene's own camera",
+            "reference (left); feedback loop (right) by level: 0 (finest) purple, 1 blue, 2 teal, \
+             3 green, 4+ yellow",
         )
         .map_err(|e| DemoError::draw(&path, e))?;
         images.push(image);

@@ -13,34 +13,37 @@ pub struct CostPoint {
     pub p99_px: f64,
 }
 
-/// The cost of the cheapest uniform cut whose p99 is at most `p99_px`, interpolated linearly
-/// (in p99) between the two neighbouring points of `curve` (any order; sorted by nodes here).
-/// Going up in nodes, the first point at or under the error and the one before it bracket it.
-/// If the cheapest point already meets it, that point is returned: the curve says nothing about
-/// cheaper cuts, so a ratio against it is a bound in the uniform cut's favour. `None` when no
-/// point meets the error or `p99_px` is not finite.
+/// The cheapest cost at which `curve` (uniform cuts, any order) reaches `p99_px`: the least
+/// `ms` among its points at or under the error and the points where a segment between two
+/// neighbouring points (sorted by nodes) crosses it, interpolated linearly in p99. Cost need not
+/// grow with nodes (the full-resolution cloth needs no reconstruction, so it may be cheaper
+/// than a reduced cut), hence the minimum rather than the first crossing. If the cheapest point
+/// meets the error, the curve says nothing about cheaper cuts and that point is the answer, a
+/// bound in the uniform cut's favour. `None` when no point meets the error or `p99_px` is not
+/// finite.
 pub fn uniform_cost_at(curve: &[CostPoint], p99_px: f64) -> Option<CostPoint> {
     if !p99_px.is_finite() {
         return None;
     }
     let mut points = curve.to_vec();
     points.sort_by(|a, b| a.nodes.total_cmp(&b.nodes));
-    let i = points.iter().position(|p| p.p99_px <= p99_px)?;
-    if i == 0 {
-        return Some(points[0]);
+    let mut candidates: Vec<CostPoint> = points
+        .iter()
+        .copied()
+        .filter(|p| p.p99_px <= p99_px)
+        .collect();
+    for w in points.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        if (a.p99_px - p99_px) * (b.p99_px - p99_px) < 0.0 {
+            let f = (a.p99_px - p99_px) / (a.p99_px - b.p99_px);
+            candidates.push(CostPoint {
+                nodes: a.nodes + f * (b.nodes - a.nodes),
+                ms: a.ms + f * (b.ms - a.ms),
+                p99_px,
+            });
+        }
     }
-    let (a, b) = (points[i - 1], points[i]);
-    let span = a.p99_px - b.p99_px;
-    let f = if span > 0.0 {
-        ((a.p99_px - p99_px) / span).clamp(0.0, 1.0)
-    } else {
-        1.0
-    };
-    Some(CostPoint {
-        nodes: a.nodes + f * (b.nodes - a.nodes),
-        ms: a.ms + f * (b.ms - a.ms),
-        p99_px,
-    })
+    candidates.into_iter().min_by(|a, b| a.ms.total_cmp(&b.ms))
 }
 
 #[cfg(test)]
@@ -76,8 +79,9 @@ mod tests {
     }
 
     #[test]
-    fn a_non_monotone_curve_takes_the_first_crossing() {
-        // A dip at 200 nodes: 3 px is first met there, between 100 and 200 nodes.
+    fn the_cheapest_crossing_wins_when_cost_is_not_monotone() {
+        // A dip at 200 nodes: 3 px is crossed between 100 and 200 nodes and again between 200
+        // and 300; the first crossing is the cheaper.
         let curve = [
             point(100.0, 1.0, 5.0),
             point(200.0, 2.0, 1.0),
@@ -85,5 +89,20 @@ mod tests {
         ];
         let c = uniform_cost_at(&curve, 3.0).unwrap();
         assert!((c.nodes - 150.0).abs() < 1e-9, "{c:?}");
+        // A full-resolution point cheaper than the reduced cuts near it (no reconstruction):
+        // it is the answer wherever the reduced cuts would cost more.
+        let curve = [
+            point(100.0, 1.0, 8.0),
+            point(300.0, 3.0, 4.0),
+            point(400.0, 2.5, 0.0),
+        ];
+        let c = uniform_cost_at(&curve, 4.0).unwrap();
+        assert_eq!((c.nodes, c.ms), (400.0, 2.5));
+        // Between 8 and 4 px the crossing on the first segment is cheaper.
+        let c = uniform_cost_at(&curve, 6.0).unwrap();
+        assert!(
+            (c.ms - 2.0).abs() < 1e-12 && (c.nodes - 200.0).abs() < 1e-9,
+            "{c:?}"
+        );
     }
 }

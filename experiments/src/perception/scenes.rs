@@ -21,7 +21,7 @@ use std::sync::Arc;
 use glam::Vec3;
 use salience::View;
 use slod::cloth::{AdaptiveCloth, ClothError};
-use softbody::{ParticleId, TreeCutSettings};
+use softbody::{TreeCutSettings, WindField, grid_triangles};
 use treecut::{Cut, GridSpec, Hierarchy};
 
 use crate::rng::Rng;
@@ -37,7 +37,7 @@ pub const FOV_Y_DEG: f32 = 50.0;
 /// profile) or a tiny one for `--quick`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SceneScale {
-    /// The sizes the issue names (65² and 129² nets, a 129² large cloth), 240 steps (4 s).
+    /// The sizes the issue names (65² and 129² nets, a 129² large cloth), 200 steps (3.3 s).
     Full,
     /// About a quarter of the vertices per side, 150 steps: for tests.
     Small,
@@ -60,7 +60,7 @@ impl SceneScale {
     /// Steps per run.
     pub fn steps(self) -> u32 {
         match self {
-            SceneScale::Full => 240,
+            SceneScale::Full => 200,
             SceneScale::Small => 150,
             SceneScale::Tiny => 40,
         }
@@ -101,60 +101,16 @@ pub enum Camera {
 pub enum Driver {
     /// Gravity only.
     Still,
-    /// A gusty wind (see [`Gusts`]).
-    Gusts(Gusts),
+    /// A wind field with seeded gusts (softbody's [`WindField`]: drag and lift per node from
+    /// the area of the finest triangles it stands for, so the force is the same at every cut).
+    Wind {
+        /// The field.
+        field: WindField,
+        /// The finest triangles (vertex indices) the wind acts on.
+        triangles: Vec<[u32; 3]>,
+    },
     /// Pinned anchors moved every step (see [`Rail`]).
     Rail(Rail),
-}
-
-/// A seeded gusty wind, a stand-in until a real wind field drives the flag.
-///
-/// Each step every particle gets the force `m · a(x, t)`, its mass times an acceleration field
-/// evaluated at its position: a mean wind along `direction` whose strength varies in gusts
-/// (seeded random knots every `gust_seconds`, smoothly interpolated), modulated by waves running
-/// along the wind, plus a smaller fluctuating component across the cloth that makes it flutter.
-/// Scaling by each particle's mass (its share of the cloth's mass times the total) makes the total
-/// force the same whatever the cut: a coarse node carrying a quarter of the mass gets a quarter of
-/// the force, evaluated at its centre. Unlike a drag model it ignores the cloth's orientation and
-/// velocity; what matters here is that every strategy sees the same resolution-consistent forcing.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Gusts {
-    /// Direction of the mean wind (unit).
-    pub direction: Vec3,
-    /// Direction of the fluctuating cross component (unit, across the cloth).
-    pub across: Vec3,
-    /// Mean acceleration of the wind in m/s².
-    pub mean: f32,
-    /// Largest extra acceleration of a gust in m/s².
-    pub gust: f32,
-    /// Seconds between gust knots.
-    pub gust_seconds: f32,
-    /// Gust strengths at the knots, in [0, 1] (seeded).
-    pub knots: Vec<f32>,
-    /// Wave number of the travelling modulation, rad/m.
-    pub wave_number: f32,
-    /// Angular frequency of the modulation, rad/s.
-    pub angular_frequency: f32,
-}
-
-impl Gusts {
-    /// The wind's acceleration at `x` and time `t` (seconds).
-    pub fn acceleration(&self, x: Vec3, t: f32) -> Vec3 {
-        let k = t / self.gust_seconds;
-        let i = (k.floor() as usize).min(self.knots.len().saturating_sub(2));
-        let f = (k - i as f32).clamp(0.0, 1.0);
-        let s = f * f * (3.0 - 2.0 * f);
-        let g = self.knots.get(i).copied().unwrap_or(0.0) * (1.0 - s)
-            + self.knots.get(i + 1).copied().unwrap_or(0.0) * s;
-        let strength = self.mean + self.gust * g;
-        let along = x.dot(self.direction);
-        let height = x.y;
-        let wave = (self.wave_number * along - self.angular_frequency * t).sin();
-        let cross = (1.7 * self.wave_number * along + 2.3 * height
-            - 1.3 * self.angular_frequency * t)
-            .sin();
-        self.direction * strength * (1.0 + 0.4 * wave) + self.across * strength * 0.5 * cross
-    }
 }
 
 /// Anchors on a moving rail: each anchored vertex follows its rest position moved by a gather
@@ -238,11 +194,16 @@ impl Scene {
         )?)
     }
 
-    /// A cloth of this scene on `cut` (a valid cut of [`Scene::hierarchy`]), at rest, pinned.
+    /// A cloth of this scene on `cut` (a valid cut of [`Scene::hierarchy`]), at rest, pinned,
+    /// in its wind if it has one.
     pub fn cloth(&self, cut: Cut) -> Result<AdaptiveCloth, ClothError> {
         let mut c = AdaptiveCloth::new(self.hierarchy.clone(), cut, self.body, self.rest_normal)?;
         for &(v, anchor) in &self.pins {
             c.body_mut().pin_vertex(v, anchor)?;
+        }
+        if let Driver::Wind { field, triangles } = &self.driver {
+            c.body_mut().set_surface(triangles)?;
+            c.set_wind(Some(*field))?;
         }
         Ok(c)
     }
@@ -256,16 +217,8 @@ impl Scene {
     pub fn drive(&self, cloth: &mut AdaptiveCloth, step: u32) -> Result<(), ClothError> {
         let t = step as f32 * self.body.solver.dt;
         match &self.driver {
-            Driver::Still => {}
-            Driver::Gusts(g) => {
-                let body = cloth.body_mut();
-                for i in 0..body.particle_count() {
-                    let p = ParticleId::new(i);
-                    let x = body.particle_positions()[i].truncate();
-                    let m = body.particle_masses()[i];
-                    body.set_external_force(p, m * g.acceleration(x, t))?;
-                }
-            }
+            // The wind acts inside the step, on the cloth's own clock.
+            Driver::Still | Driver::Wind { .. } => {}
             Driver::Rail(r) => {
                 let body = cloth.body_mut();
                 for &(v, rest) in &r.anchors {
@@ -426,7 +379,8 @@ fn vertical(cols: u32, rows: u32, width: f32, height: f32, mass: f32, top_left: 
 }
 
 /// A flag, 1.5 m × 0.75 m (65 × 33 vertices at full scale), pinned along its hoist edge, in a
-/// seeded gusty wind ([`Gusts`]) along +x with a fluctuating cross component along z.
+/// seeded gusty wind ([`WindField`]) of 6.5 m/s, mostly along the flag (+x) and partly through
+/// it (+z), gusting by 35%.
 pub fn flag(scale: SceneScale) -> Result<Scene, ClothError> {
     let cols = scale.side(65);
     let rows = (cols - 1) / 2 + 1;
@@ -436,12 +390,6 @@ pub fn flag(scale: SceneScale) -> Result<Scene, ClothError> {
         .map(|j| (spec.vertex(0, j), spec.position(0, j)))
         .collect();
     let steps = scale.steps();
-    let gust_seconds = 0.5;
-    let dt = TreeCutSettings::default().solver.dt;
-    let mut rng = Rng::new(0xF1A6);
-    let knots = (0..(steps as f32 * dt / gust_seconds) as usize + 3)
-        .map(|_| rng.next_f32())
-        .collect();
     Ok(Scene {
         name: "flag",
         view_dependent: false,
@@ -455,16 +403,17 @@ pub fn flag(scale: SceneScale) -> Result<Scene, ClothError> {
             eye: Vec3::new(0.4, 0.1, 2.6),
             target: Vec3::new(0.1, -0.1, 0.0),
         },
-        driver: Driver::Gusts(Gusts {
-            direction: Vec3::X,
-            across: Vec3::Z,
-            mean: 6.0,
-            gust: 8.0,
-            gust_seconds,
-            knots,
-            wave_number: 4.0,
-            angular_frequency: 9.0,
-        }),
+        driver: Driver::Wind {
+            field: WindField {
+                velocity: Vec3::new(6.0, 0.0, 2.5),
+                gust: 0.35,
+                gust_frequency: 0.7,
+                gust_wavelength: 3.0,
+                seed: 0xF1A6,
+                ..WindField::default()
+            },
+            triangles: grid_triangles(cols, rows),
+        },
     })
 }
 
