@@ -265,13 +265,13 @@ static int run_crowd(SlodWorld *world, const char *rig_path, unsigned characters
         int skinned_finite = 1;
         if (meshes > 0) {
             CHECK(slod_character_skinned_vertices(world, ids[0], 0, NULL, NULL, 0, &nv));
-            float(*pos)[3] = malloc((nv ? nv : 1) * sizeof *pos);
-            float(*nrm)[3] = malloc((nv ? nv : 1) * sizeof *nrm);
+            float *pos = malloc(3 * (nv ? nv : 1) * sizeof *pos); /* x, y, z per vertex */
+            float *nrm = malloc(3 * (nv ? nv : 1) * sizeof *nrm);
             if (!pos || !nrm) return 1;
             CHECK(slod_character_skinned_vertices(world, ids[0], 0, pos, nrm, nv, &got));
             for (size_t i = 0; i < got; ++i)
                 for (int k = 0; k < 3; ++k)
-                    skinned_finite &= isfinite(pos[i][k]) && isfinite(nrm[i][k]) ? 1 : 0;
+                    skinned_finite &= isfinite(pos[3 * i + k]) && isfinite(nrm[3 * i + k]) ? 1 : 0;
             free(pos);
             free(nrm);
         }

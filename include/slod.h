@@ -2228,8 +2228,9 @@ SlodResult slod_character_pose_error(const struct SlodWorld *world,
 
 /**
  * Skins mesh `mesh` of a character's rig on the CPU (linear blend of up to four joints per
- * vertex) and copies its positions and normals (float[3] each, skeleton model space; add the
- * character's position for world space) to `positions` and `normals`.
+ * vertex) and copies its positions and normals (3 floats each: x, y, z, stride 3 floats;
+ * skeleton model space; add the character's position for world space) to `positions` and
+ * `normals`.
  *
  * Buffer: copy-out counted in vertices, both buffers `cap` long (call with `cap` 0 to size
  * them); nothing is written unless both fit. Threads: reads the world only. Errors:
@@ -2237,14 +2238,14 @@ SlodResult slod_character_pose_error(const struct SlodWorld *world,
  * (`slod_rig_mesh_count`), `SLOD_RESULT_BUFFER_TOO_SMALL`.
  *
  * # Safety
- * `world` NULL or a live world; `positions` and `normals` valid for `cap` writes each (NULL if
- * `cap` is 0); `out_len` valid for a write.
+ * `world` NULL or a live world; `positions` and `normals` valid for `3 × cap` float writes
+ * each (NULL if `cap` is 0); `out_len` valid for a write.
  */
 SlodResult slod_character_skinned_vertices(const struct SlodWorld *world,
                                            struct SlodCharacterId character,
                                            uint32_t mesh,
-                                           float (*positions)[3],
-                                           float (*normals)[3],
+                                           float *positions,
+                                           float *normals,
                                            size_t cap,
                                            size_t *out_len);
 

@@ -70,7 +70,7 @@ fn contact_refines_the_nodes_that_touch() {
 fn gdbot() -> Arc<Rig> {
     let path =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/gltf/GDQuest_GDBot.glb");
-    Arc::new(Rig::from_gltf_path(&path).unwrap())
+    Arc::new(animlod::build::import_path(&path).unwrap())
 }
 
 #[test]

@@ -376,8 +376,9 @@ thread_local! {
 }
 
 /// Skins mesh `mesh` of a character's rig on the CPU (linear blend of up to four joints per
-/// vertex) and copies its positions and normals (float[3] each, skeleton model space; add the
-/// character's position for world space) to `positions` and `normals`.
+/// vertex) and copies its positions and normals (3 floats each: x, y, z, stride 3 floats;
+/// skeleton model space; add the character's position for world space) to `positions` and
+/// `normals`.
 ///
 /// Buffer: copy-out counted in vertices, both buffers `cap` long (call with `cap` 0 to size
 /// them); nothing is written unless both fit. Threads: reads the world only. Errors:
@@ -385,18 +386,21 @@ thread_local! {
 /// (`slod_rig_mesh_count`), `SLOD_RESULT_BUFFER_TOO_SMALL`.
 ///
 /// # Safety
-/// `world` NULL or a live world; `positions` and `normals` valid for `cap` writes each (NULL if
-/// `cap` is 0); `out_len` valid for a write.
+/// `world` NULL or a live world; `positions` and `normals` valid for `3 × cap` float writes
+/// each (NULL if `cap` is 0); `out_len` valid for a write.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn slod_character_skinned_vertices(
     world: *const SlodWorld,
     character: SlodCharacterId,
     mesh: u32,
-    positions: *mut [f32; 3],
-    normals: *mut [f32; 3],
+    positions: *mut f32,
+    normals: *mut f32,
     cap: usize,
     out_len: *mut usize,
 ) -> SlodResult {
+    // `[f32; 3]` has the size of 3 floats and the alignment of one: `3 × cap` floats are `cap`
+    // triples.
+    let (positions, normals) = (positions.cast::<[f32; 3]>(), normals.cast::<[f32; 3]>());
     boundary(|| {
         // SAFETY: caller contract: NULL or a live world.
         let world = unsafe { arg(world, "world") }?;
@@ -558,8 +562,8 @@ mod tests {
                     w,
                     ch,
                     0,
-                    short.as_mut_ptr(),
-                    short.as_mut_ptr(),
+                    short.as_mut_ptr().cast(),
+                    short.as_mut_ptr().cast(),
                     1,
                     &mut len
                 ),
@@ -572,8 +576,8 @@ mod tests {
                     w,
                     ch,
                     0,
-                    p.as_mut_ptr(),
-                    nrm.as_mut_ptr(),
+                    p.as_mut_ptr().cast(),
+                    nrm.as_mut_ptr().cast(),
                     v,
                     &mut v
                 ),
@@ -585,8 +589,8 @@ mod tests {
                     w,
                     ch,
                     meshes as u32,
-                    p.as_mut_ptr(),
-                    nrm.as_mut_ptr(),
+                    p.as_mut_ptr().cast(),
+                    nrm.as_mut_ptr().cast(),
                     v,
                     &mut v
                 ),
