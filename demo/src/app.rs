@@ -347,7 +347,12 @@ fn summary(report: &Report<'_>, dir: &Path, files: &[String], total_s: f64) -> S
             let lod = s.runs.iter().find(|r| r.strategy == "lod");
             if let (Some(reference), Some(lod)) = (reference, lod) {
                 t.row([
-                    format!("engine: {} ({} colliders)", s.name, s.colliders),
+                    format!(
+                        "engine: {} ({} collider{})",
+                        s.name,
+                        s.colliders,
+                        if s.colliders == 1 { "" } else { "s" }
+                    ),
                     format!(
                         "LOD {} of {} nodes: {} ms/step ({} contact), screen RMS {} px, \
                          penetration {} mm (reference {} mm)",
