@@ -14,7 +14,7 @@ use crate::net::NetSection;
 use crate::perception::PerceptionSection;
 
 /// Version of the report's layout; bumped when a field changes meaning or disappears.
-pub(crate) const SCHEMA: &str = "slod-demo-report/1";
+pub(crate) const SCHEMA: &str = "slod-demo-report/2";
 
 /// Wall times of the stages (s).
 #[derive(Clone, Debug, Default, Serialize)]

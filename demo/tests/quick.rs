@@ -564,7 +564,7 @@ fn quick_run_writes_a_complete_report_and_real_pictures() {
             "seconds",
         ],
     );
-    assert_eq!(r["schema"], "slod-demo-report/1");
+    assert_eq!(r["schema"], "slod-demo-report/2");
     assert_eq!(r["command"], "all");
     assert_eq!(r["quick"], true);
     has(
