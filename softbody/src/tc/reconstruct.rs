@@ -8,13 +8,13 @@
 //! * [`ReconstructionMode::Rigid`]: `x_v = x_j + R_j (rest_v − rest_j)` — each node carries its
 //!   vertices as a rigid patch. Exact at the finest cut; leaves small cracks between patches.
 //! * [`ReconstructionMode::Smooth`]: the rigid predictions of the covering particle and its
-//!   linked neighbours are blended with weights `(1 − (d/s)²)²` of the rest distance `d`
-//!   from neighbour `k` to the vertex, where `s` is the larger of `k`'s and the covering
-//!   node's shortest links. A neighbour never reaches the vertices of a node at the finest
-//!   level when both are fine (`d ≥ s`), so this is exact there too, while patches of coarse
-//!   nodes bend towards their neighbours instead of meeting at cracks — fine neighbours
-//!   included (with `k`'s support alone they never reached a coarse node's vertices, and a
-//!   coarse node's edge stood out from its fine neighbours along free edges).
+//!   linked neighbours are blended with weights `(1 − (d/s_k)²)²` of the rest distance `d`
+//!   from neighbour `k` to the vertex, where `s_k` is `k`'s shortest link. A neighbour never
+//!   reaches the vertices of a node at the finest level (`d ≥ s`), so this is exact there too,
+//!   while patches of coarse nodes bend towards their neighbours instead of meeting at cracks.
+//!   Tried and reverted: `s = max(s_k, s_covering)`, so fine neighbours also bend a coarse
+//!   node's patch: 0.36 → 0.34 px RMS restriction error on the net at 30 %, but the worn cape's
+//!   reconstructed surface went 6.9 → 16.4 mm into the body capsules.
 //!
 //! Which is better was measured (test `smooth_reconstruction_beats_rigid`): restricting a
 //! simulated full-resolution swinging net to uniform coarser cuts and reconstructing it,
@@ -211,10 +211,7 @@ impl TreeCutSoftBody {
                         for q in self.body.neighbours(ParticleId::new(p)) {
                             let qi = q.index();
                             let offset = rv - rest[qi];
-                            let w = kernel_sq(
-                                offset.length_squared(),
-                                support_sq[qi].max(support_sq[p]),
-                            );
+                            let w = kernel_sq(offset.length_squared(), support_sq[qi]);
                             if w > 0.0 {
                                 acc += (pos[qi].truncate() + rot.get(qi) * offset) * w;
                                 w_sum += w;
