@@ -900,8 +900,9 @@ typedef struct SlodCharacterDesc {
    */
   uint32_t guard;
   /**
-   * World position of the skeleton's origin (characters are not rotated; every coordinate
-   * finite, within `SLOD_MAX_COORDINATE`).
+   * World position of the skeleton's origin (every coordinate finite, within
+   * `SLOD_MAX_COORDINATE`); turn and scale a character with `slod_character_set_rotation`
+   * and `slod_character_set_scale`.
    */
   float position[3];
   /**
@@ -1890,6 +1891,36 @@ SlodResult slod_character_skinned_vertices(const struct SlodWorld *world,
                                            float (*normals)[3],
                                            size_t cap,
                                            size_t *out_len);
+
+/**
+ * Turns a character: `rotation` is a quaternion `{x, y, z, w}` (finite, non-zero length;
+ * normalised) mapping its skeleton model space to the world, about the skeleton's origin.
+ * Distances, projected sizes and errors are measured with it; the matrices the character
+ * reports stay in skeleton model space.
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+ * (nothing changed).
+ *
+ * # Safety
+ * `world` NULL or a live world; `rotation` NULL or valid for a read.
+ */
+SlodResult slod_character_set_rotation(struct SlodWorld *world,
+                                       struct SlodCharacterId character,
+                                       const float (*rotation)[4]);
+
+/**
+ * Scales a character uniformly about its skeleton's origin (finite, in (0, 1e4]; 1 by
+ * default).
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+ * (nothing changed).
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_character_set_scale(struct SlodWorld *world,
+                                    struct SlodCharacterId character,
+                                    float scale);
 
 #ifdef __cplusplus
 }  // extern "C"

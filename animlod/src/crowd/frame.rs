@@ -162,9 +162,11 @@ impl Crowd {
                     .for_each(|l| *l -= shift);
             }
             c.step = step;
-            let world = c.position + center;
+            let world = c.world().transform_point3(center);
+            let radius = radius * c.scale;
             c.size_px = view.projected_radius_px(world, radius);
-            c.near_ppu = view.max_pixels_per_unit(world, radius);
+            // Pixels per model unit: the view's per world unit times the character's scale.
+            c.near_ppu = view.max_pixels_per_unit(world, radius) * c.scale;
             let visible = view.sphere_in_view(world, radius);
             c.omega = match lod {
                 LodMode::Off | LodMode::Budget { .. } | LodMode::ErrorBound { .. } => 1.0,

@@ -14,7 +14,7 @@ use std::sync::Arc;
 
 use slod_core::{Arena, Generations, Handle};
 
-use glam::{Affine3A, Mat4, Vec3};
+use glam::{Affine3A, Mat4, Quat, Vec3};
 
 use crate::clip::{Clip, Cursor, TrsScratch};
 use crate::error::{CrowdError, invalid};
@@ -83,6 +83,10 @@ const CLOCK_REBASE: f32 = 1024.0;
 struct Character {
     id: CharacterId,
     position: Vec3,
+    /// Orientation of the character (applied to its skeleton model space).
+    rotation: Quat,
+    /// Uniform scale of the character.
+    scale: f32,
     clip: ClipId,
     /// Playback time, wrapped into the clip.
     time: f32,
@@ -105,6 +109,18 @@ struct Character {
     near_ppu: f32,
     /// Whether any model matrix changed in the last advance (or evaluation).
     changed: bool,
+}
+
+impl Character {
+    /// Model-to-world transform: scale, rotation, then translation.
+    #[inline]
+    fn world(&self) -> Affine3A {
+        Affine3A::from_scale_rotation_translation(
+            Vec3::splat(self.scale),
+            self.rotation,
+            self.position,
+        )
+    }
 }
 
 /// Scratch reused every frame (no allocation in the frame loop once warmed up).
@@ -255,7 +271,8 @@ impl Crowd {
         self.rig.clip(clip).ok_or(CrowdError::UnknownClip(clip))
     }
 
-    /// Adds a character at `position` (world space; characters are not rotated) playing `clip`
+    /// Adds a character at `position` (world space; unrotated, scale 1 until
+    /// [`Crowd::set_rotation`] / [`Crowd::set_scale`]) playing `clip`
     /// from time 0 at speed 1. Its pose is evaluated at once.
     pub fn add_character(
         &mut self,
@@ -272,6 +289,8 @@ impl Crowd {
         self.chars.push(Character {
             id,
             position,
+            rotation: Quat::IDENTITY,
+            scale: 1.0,
             clip,
             time: 0.0,
             segment: 0,
@@ -333,6 +352,37 @@ impl Crowd {
     /// A character's position.
     pub fn position(&self, id: CharacterId) -> Result<Vec3, CrowdError> {
         Ok(self.chars[self.dense(id)?].position)
+    }
+
+    /// Turns a character: `rotation` (finite, non-zero length; normalised here) maps its
+    /// skeleton model space to world space, about the skeleton's origin. Distances, projected
+    /// sizes and errors are measured with it.
+    pub fn set_rotation(&mut self, id: CharacterId, rotation: Quat) -> Result<(), CrowdError> {
+        if !(rotation.is_finite() && rotation.length() > 1e-6) {
+            return Err(invalid("rotation", "must be finite with a non-zero length"));
+        }
+        let d = self.dense(id)?;
+        self.chars[d].rotation = rotation.normalize();
+        Ok(())
+    }
+
+    /// Scales a character uniformly (finite, > 0; 1 by default): its skeleton model space is
+    /// scaled by `scale` about the skeleton's origin before rotation and translation.
+    pub fn set_scale(&mut self, id: CharacterId, scale: f32) -> Result<(), CrowdError> {
+        if !(scale.is_finite() && scale > 0.0) {
+            return Err(invalid("scale", "must be finite and positive"));
+        }
+        let d = self.dense(id)?;
+        self.chars[d].scale = scale;
+        Ok(())
+    }
+
+    /// A character's model-to-world transform: scale, then rotation, then translation to its
+    /// position. Model matrices ([`Crowd::model_matrices`]) are in skeleton model space; this
+    /// places them in the world.
+    pub fn world_transform(&self, id: CharacterId) -> Result<Affine3A, CrowdError> {
+        let c = &self.chars[self.dense(id)?];
+        Ok(c.world())
     }
 
     /// Switches a character to another clip from time 0; its pose is re-evaluated at once.
@@ -403,9 +453,16 @@ impl Crowd {
         Ok(self.chars[self.dense(id)?].omega)
     }
 
-    /// Sets the LOD mode (validated).
+    /// Sets the LOD mode (validated). A different mode starts from exact poses: every
+    /// character is evaluated in full at its current time, so no hold carries over that the
+    /// new mode has not accounted for (the error bound's drift, for one).
     pub fn set_lod(&mut self, lod: LodMode) -> Result<(), CrowdError> {
         lod.validate()?;
+        if lod != self.lod {
+            for d in 0..self.chars.len() {
+                self.evaluate_full(d);
+            }
+        }
         self.lod = lod;
         Ok(())
     }
@@ -516,8 +573,8 @@ impl Crowd {
         Ok(self.chars[self.dense(id)?].changed)
     }
 
-    /// Model-space matrices of a character's bones (skeleton model space; add the character's
-    /// position for world space). Valid until the next mutating call on the crowd.
+    /// Model-space matrices of a character's bones (skeleton model space; apply
+    /// [`Crowd::world_transform`] for world space). Valid until the next mutating call on the crowd.
     pub fn model_matrices(&self, id: CharacterId) -> Result<&[Mat4], CrowdError> {
         let d = self.dense(id)?;
         Ok(&self.models[self.span(d)])
