@@ -892,6 +892,29 @@ typedef struct SlodPriorityWeights {
 } SlodPriorityWeights;
 
 /**
+ * Per-stage cost of a crowd's last `slod_crowd_advance`, with stage timing on
+ * (`slod_crowd_set_stage_timing`); zeros otherwise.
+ */
+typedef struct SlodCrowdStageStats {
+  /**
+   * Nanoseconds spent sampling (key search, interpolation, local matrices).
+   */
+  uint64_t sample_ns;
+  /**
+   * Nanoseconds spent concatenating local to model matrices.
+   */
+  uint64_t concat_ns;
+  /**
+   * Characters whose pose changed (the others' palettes and skinned vertices can be reused).
+   */
+  uint32_t characters_changed;
+  /**
+   * Characters advanced.
+   */
+  uint32_t characters;
+} SlodCrowdStageStats;
+
+/**
  * How to add a character. Get one from `slod_default_character_desc`.
  */
 typedef struct SlodCharacterDesc {
@@ -1717,6 +1740,29 @@ SlodResult slod_crowd_set_scheduler(struct SlodWorld *world,
 SlodResult slod_crowd_priority_source(const struct SlodWorld *world,
                                       struct SlodCrowdId crowd,
                                       SlodPrioritySource *out_source);
+
+/**
+ * Turns per-stage timing of a crowd's `slod_crowd_advance` on or off (off by default: two
+ * clock reads per character per frame). Poses are the same either way.
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_crowd_set_stage_timing(struct SlodWorld *world, struct SlodCrowdId crowd, bool on);
+
+/**
+ * Writes the per-stage statistics of a crowd's last `slod_crowd_advance` to `*out_stats`.
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_stats` NULL or valid for a write.
+ */
+SlodResult slod_crowd_stage_stats(const struct SlodWorld *world,
+                                  struct SlodCrowdId crowd,
+                                  struct SlodCrowdStageStats *out_stats);
 
 /**
  * The default character: at the origin, clip 0 from time 0, speed 1. Returns a value the host

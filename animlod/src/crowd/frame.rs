@@ -215,6 +215,7 @@ impl Crowd {
                 d = 0;
             }
         }
+        self.last_stats = stats;
         Ok(stats)
     }
 

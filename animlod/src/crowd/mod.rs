@@ -174,6 +174,8 @@ pub struct Crowd {
     tables: Vec<Vec<f32>>,
     /// Whether `advance` times its sampling and concatenation stages (see [`FrameStats`]).
     stage_timing: bool,
+    /// What the last `advance` did.
+    last_stats: FrameStats,
     /// Frames advanced (rotates the budget's processing order).
     frame: u64,
     scratch: Scratch,
@@ -214,6 +216,7 @@ impl Crowd {
             user: vec![1.0; bones],
             tables: Vec::new(),
             stage_timing: false,
+            last_stats: FrameStats::default(),
             frame: 0,
             scratch: Scratch {
                 mask: vec![0; bones],
@@ -471,6 +474,11 @@ impl Crowd {
     /// per character per frame). Measurement only; poses are the same either way.
     pub fn set_stage_timing(&mut self, on: bool) {
         self.stage_timing = on;
+    }
+
+    /// What the last [`Crowd::advance`] did (zero before the first).
+    pub fn last_stats(&self) -> &FrameStats {
+        &self.last_stats
     }
 
     /// The LOD mode.

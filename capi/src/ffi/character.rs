@@ -654,6 +654,17 @@ mod tests {
             );
             assert_eq!(slod_character_set_scale(w, ch, 1.5), SlodResult::Ok);
 
+            // Stage statistics after a timed advance.
+            assert_eq!(slod_crowd_set_stage_timing(w, crowd, true), SlodResult::Ok);
+            assert_eq!(
+                slod_crowd_advance(w, crowd, 0.016, null_mut()),
+                SlodResult::Ok
+            );
+            let mut st = SlodCrowdStageStats::default();
+            assert_eq!(slod_crowd_stage_stats(w, crowd, &mut st), SlodResult::Ok);
+            assert_eq!((st.characters, st.characters_changed), (1, 1));
+            assert!(st.sample_ns > 0);
+
             // Play once, pose changed, pose error (0 at full detail).
             assert_eq!(slod_character_set_play_once(w, ch, true), SlodResult::Ok);
             assert_eq!(
