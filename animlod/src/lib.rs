@@ -8,14 +8,18 @@
 //!   [`SubPriorities`] table — static per-keyframe priorities of every animated bone (thesis
 //!   ch. 10–12, with its two defects fixed) and measured hold error rates — is computed; and
 //!   [`build::analysis::derive_weights`] fits the [`PriorityWeights`] to measured pose error.
-//! - [`Rig`] — the plain runtime data the build step produces: a [`Skeleton`], its [`Clip`]s
-//!   and [`Skin`]s, and one priority table per clip.
+//! - [`Rig`] — the plain runtime data the build step produces: a [`Skeleton`], its [`Clip`]s,
+//!   [`Skin`]s and [`SkinnedMesh`]es, and one priority table per clip.
 //! - [`Crowd`] — characters sharing an `Arc<Rig>`; [`LodMode`] and the frame's
-//!   [`salience::View`] give each its camera ratio Ω; the [`scheduler`] turns priority × Ω into an update period per bone (the
-//!   thesis' reading), [`LodMode::Budget`] spends a fixed number of interpolations per frame over
-//!   the crowd, and [`LodMode::ErrorBound`] holds a bone only while its measured on-screen drift
-//!   stays under a pixel bound; [`Crowd::advance`] samples, holds and concatenates (skipping
-//!   subtrees that held); [`Crowd::pose_error`] measures the cost against full-rate evaluation.
+//!   [`salience::View`] give each its camera ratio Ω; the scheduler turns priority × Ω into an
+//!   update period per bone (the thesis' reading), [`LodMode::Budget`] spends a fixed number of
+//!   interpolations per frame over the crowd, and [`LodMode::ErrorBound`] holds a bone only while
+//!   the drift of it and its held ancestors stays under a pixel bound; [`Crowd::advance`]
+//!   samples, holds and concatenates (skipping subtrees that held); [`Crowd::pose_changed`]
+//!   says when a character's skinned output can be reused; [`Crowd::pose_error`] measures the
+//!   cost against full-rate evaluation at every joint's origin and tip ([`Skeleton::tip`]).
+//! - [`SkinningJob`] — CPU linear-blend skinning of a [`SkinnedMesh`] with a character's palette
+//!   ([`Crowd::skinning_matrices`]).
 //!
 //! The thesis' crowd test and other experiments live in the `slod-experiments` crate.
 #![forbid(unsafe_code)]

@@ -125,7 +125,7 @@ impl Default for PriorityWeights {
 ///
 /// The segments are those of the clip's *timeline*: the union of the key times of its animated
 /// channels (for a typical export, simply its keys). Motion factors are stored per segment and
-/// animated bone (`[segment * bones + slot]`, slot = position in [`Clip::animated_bones`]);
+/// animated bone (`[segment * bones + slot]`, slot = position in [`crate::Clip::animated_bones`]);
 /// structural factors per animated bone. The user factor is applied by the crowd.
 #[derive(Clone, Debug, Default)]
 pub struct SubPriorities {
@@ -200,7 +200,7 @@ impl SubPriorities {
     }
 
     /// The summed (over joints) hold error rate of animated bone `slot` in `segment`.
-    pub(crate) fn hold_error_rate_sum(&self, segment: usize, slot: usize) -> f32 {
+    pub fn hold_error_rate_sum(&self, segment: usize, slot: usize) -> f32 {
         self.hold_sum[segment * self.slots + slot]
     }
 

@@ -530,7 +530,7 @@ impl Crowd {
     }
 
     /// The combined priority of every animated bone of `clip` in key segment `segment`
-    /// (`[slot]`, slot = position in [`Clip::animated_bones`]).
+    /// (`[slot]`, slot = position in [`crate::Clip::animated_bones`]).
     pub fn priorities(&self, clip: ClipId, segment: usize) -> Result<&[f32], CrowdError> {
         let c = self.clip_ref(clip)?;
         let slots = c.animated_bone_count();
