@@ -5,7 +5,7 @@
 //! The pieces, in the order data flows:
 //! - The build step, [`build`] (offline, once per rig): glTF import ([`build::import_path`]) or
 //!   parts built in code ([`build::rig`]); constant channels are folded away; each clip's
-//!   [`SubPriorities`] table — static per-keyframe priorities of every animated bone (thesis
+//!   priority table — static per-keyframe priorities of every animated bone (thesis
 //!   ch. 10–12, with its two defects fixed) and measured hold error rates — is computed; and
 //!   [`build::analysis::derive_weights`] fits the [`PriorityWeights`] to measured pose error.
 //! - [`Rig`] — the plain runtime data the build step produces: a [`Skeleton`], its [`Clip`]s,
@@ -48,7 +48,7 @@ pub use ids::{BoneId, CharacterId, ClipId, SkinId};
 pub use lod::LodMode;
 pub use mesh::{SkinnedMesh, SkinningJob};
 pub use pose_error::{ErrorSum, PoseError};
-pub use priority::{Factor, PriorityWeights, SubPriorities};
+pub use priority::{Factor, PriorityWeights};
 pub use rig::{Rig, Skin};
 pub use scheduler::SchedulerParams;
 pub use skeleton::{BoneDesc, MAX_BONES, Skeleton};

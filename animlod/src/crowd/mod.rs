@@ -35,7 +35,7 @@ pub enum PrioritySource {
     #[default]
     Factors,
     /// The measured hold error rate of each bone keyframe over its clip's peak — what the six
-    /// factors approximate (see [`crate::SubPriorities::hold_error_rate`]).
+    /// factors approximate (see the priority table\'s `hold_error_rate`).
     HoldError,
 }
 
