@@ -334,3 +334,57 @@ fn rotated_and_scaled_characters_are_measured_in_the_world() {
     }
     assert!(worst > 0.0 && worst <= 0.5 * 1.02, "{worst}");
 }
+
+#[test]
+fn a_parallel_crowd_gives_the_serial_poses() {
+    let rig = Arc::new(crate::build::import_path(&asset("GDQuest_GDBot.glb")).unwrap());
+    let clips: Vec<ClipId> = (0..rig.clips().len()).map(ClipId::new).collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    for lod in [
+        LodMode::Off,
+        LodMode::Ratio(0.4),
+        LodMode::DEFAULT_PIXEL_SIZE,
+        LodMode::Range {
+            min: 5.0,
+            max: 40.0,
+        },
+        LodMode::ErrorBound { max_error_px: 1.0 },
+    ] {
+        let (mut serial, mut parallel) = (Crowd::new(rig.clone()), Crowd::new(rig.clone()));
+        parallel.set_parallel(true);
+        for c in [&mut serial, &mut parallel] {
+            for i in 0..150 {
+                let clip = clips[i % clips.len()];
+                let id = c
+                    .add_character(
+                        Vec3::new((i % 15) as f32, 0.0, -((i / 15) as f32) * 3.0),
+                        clip,
+                    )
+                    .unwrap();
+                c.set_time(id, 0.07 * i as f32).unwrap();
+            }
+            c.set_lod(lod).unwrap();
+        }
+        let view = view_at(6.0);
+        for _ in 0..20 {
+            let a = serial.advance(1.0 / 60.0, &view).unwrap();
+            let b = pool
+                .install(|| parallel.advance(1.0 / 60.0, &view))
+                .unwrap();
+            assert_eq!(a, b, "{lod:?}");
+        }
+        for (a, b) in serial.character_ids().zip(parallel.character_ids()) {
+            assert_eq!(
+                serial.model_matrices(a).unwrap(),
+                parallel.model_matrices(b).unwrap()
+            );
+            assert_eq!(
+                serial.pose_changed(a).unwrap(),
+                parallel.pose_changed(b).unwrap()
+            );
+        }
+    }
+}

@@ -146,6 +146,21 @@ struct Scratch {
     dirty: Vec<u8>,
 }
 
+impl Scratch {
+    /// Scratch for a rig of `bones` bones.
+    fn new(bones: usize) -> Scratch {
+        Scratch {
+            mask: vec![0; bones],
+            go: vec![0; bones],
+            dirty: vec![0; bones + 1],
+            updated: vec![0; bones],
+            list: vec![0; bones],
+            chain: vec![0.0; bones],
+            ..Scratch::default()
+        }
+    }
+}
+
 /// Characters sharing one rig, animated with bone-priority LOD.
 #[derive(Clone, Debug)]
 pub struct Crowd {
@@ -176,6 +191,8 @@ pub struct Crowd {
     stage_timing: bool,
     /// What the last `advance` did.
     last_stats: FrameStats,
+    /// Whether `advance` splits the characters over the rayon pool (not in budget mode).
+    parallel: bool,
     /// Frames advanced (rotates the budget's processing order).
     frame: u64,
     scratch: Scratch,
@@ -218,15 +235,8 @@ impl Crowd {
             stage_timing: false,
             last_stats: FrameStats::default(),
             frame: 0,
-            scratch: Scratch {
-                mask: vec![0; bones],
-                go: vec![0; bones],
-                dirty: vec![0; bones + 1],
-                updated: vec![0; bones],
-                list: vec![0; bones],
-                chain: vec![0.0; bones],
-                ..Scratch::default()
-            },
+            scratch: Scratch::new(bones),
+            parallel: false,
         };
         crowd.rebuild_tables();
         crowd
@@ -474,6 +484,13 @@ impl Crowd {
     /// per character per frame). Measurement only; poses are the same either way.
     pub fn set_stage_timing(&mut self, on: bool) {
         self.stage_timing = on;
+    }
+
+    /// Splits [`Crowd::advance`] over the current rayon pool (off by default). Outside
+    /// [`LodMode::Budget`], whose crowd-wide cut is serial, characters are independent, so the
+    /// poses and statistics equal a one-thread run's.
+    pub fn set_parallel(&mut self, on: bool) {
+        self.parallel = on;
     }
 
     /// What the last [`Crowd::advance`] did (zero before the first).
