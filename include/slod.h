@@ -1638,6 +1638,9 @@ SlodResult slod_crowd_set_lod(struct SlodWorld *world,
  * `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_INVALID_ARGUMENT` for `dt` not finite or outside
  * [0, 3600] (nothing advanced); `SLOD_RESULT_NULL_ARGUMENT` for a NULL `world`.
  *
+ * Characters are split over the world's worker threads (unless it has one; not in budget
+ * mode); the poses are the same on any number of threads.
+ *
  * # Safety
  * `world` NULL or a live world; `out_stats` NULL or valid for a write.
  */

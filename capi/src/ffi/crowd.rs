@@ -332,6 +332,9 @@ pub unsafe extern "C" fn slod_crowd_set_lod(
 /// `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_INVALID_ARGUMENT` for `dt` not finite or outside
 /// [0, 3600] (nothing advanced); `SLOD_RESULT_NULL_ARGUMENT` for a NULL `world`.
 ///
+/// Characters are split over the world's worker threads (unless it has one; not in budget
+/// mode); the poses are the same on any number of threads.
+///
 /// # Safety
 /// `world` NULL or a live world; `out_stats` NULL or valid for a write.
 #[unsafe(no_mangle)]
@@ -345,9 +348,12 @@ pub unsafe extern "C" fn slod_crowd_advance(
         // SAFETY: caller contract: NULL or a live world used by this thread only.
         let world = unsafe { arg_mut(world, "world") }?;
         let view = world.view;
-        let c = crowd_mut(world, crowd)?;
+        let parallel = world.parallel_allowed();
+        let pool = world.pool.as_ref();
+        let c = world.crowds.get_mut(RawId::from(crowd), "crowd")?;
         in_range(dt, 0.0, 3600.0, "dt")?;
-        let s = c.advance(dt, &view).map_err(crowd_error)?;
+        c.set_parallel(parallel);
+        let s = SlodWorld::run(pool, || c.advance(dt, &view)).map_err(crowd_error)?;
         if out_stats.is_null() {
             return Ok(());
         }
