@@ -1093,6 +1093,29 @@ typedef struct SlodPriorityWeights {
 } SlodPriorityWeights;
 
 /**
+ * Per-stage cost of a crowd's last `slod_crowd_advance`, with stage timing on
+ * (`slod_crowd_set_stage_timing`); zeros otherwise.
+ */
+typedef struct SlodCrowdStageStats {
+  /**
+   * Nanoseconds spent sampling (key search, interpolation, local matrices).
+   */
+  uint64_t sample_ns;
+  /**
+   * Nanoseconds spent concatenating local to model matrices.
+   */
+  uint64_t concat_ns;
+  /**
+   * Characters whose pose changed (the others' palettes and skinned vertices can be reused).
+   */
+  uint32_t characters_changed;
+  /**
+   * Characters advanced.
+   */
+  uint32_t characters;
+} SlodCrowdStageStats;
+
+/**
  * How to add a character. Get one from `slod_default_character_desc`.
  */
 typedef struct SlodCharacterDesc {
@@ -1101,8 +1124,9 @@ typedef struct SlodCharacterDesc {
    */
   uint32_t guard;
   /**
-   * World position of the skeleton's origin (characters are not rotated; every coordinate
-   * finite, within `SLOD_MAX_COORDINATE`).
+   * World position of the skeleton's origin (every coordinate finite, within
+   * `SLOD_MAX_COORDINATE`); turn and scale a character with `slod_character_set_rotation`
+   * and `slod_character_set_scale`.
    */
   float position[3];
   /**
@@ -1971,6 +1995,9 @@ SlodResult slod_crowd_set_lod(struct SlodWorld *world,
  * `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_INVALID_ARGUMENT` for `dt` not finite or outside
  * [0, 3600] (nothing advanced); `SLOD_RESULT_NULL_ARGUMENT` for a NULL `world`.
  *
+ * Characters are split over the world's worker threads (unless it has one; not in budget
+ * mode); the poses are the same on any number of threads.
+ *
  * # Safety
  * `world` NULL or a live world; `out_stats` NULL or valid for a write.
  */
@@ -2073,6 +2100,29 @@ SlodResult slod_crowd_set_scheduler(struct SlodWorld *world,
 SlodResult slod_crowd_priority_source(const struct SlodWorld *world,
                                       struct SlodCrowdId crowd,
                                       SlodPrioritySource *out_source);
+
+/**
+ * Turns per-stage timing of a crowd's `slod_crowd_advance` on or off (off by default: two
+ * clock reads per character per frame). Poses are the same either way.
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_crowd_set_stage_timing(struct SlodWorld *world, struct SlodCrowdId crowd, bool on);
+
+/**
+ * Writes the per-stage statistics of a crowd's last `slod_crowd_advance` to `*out_stats`.
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_stats` NULL or valid for a write.
+ */
+SlodResult slod_crowd_stage_stats(const struct SlodWorld *world,
+                                  struct SlodCrowdId crowd,
+                                  struct SlodCrowdStageStats *out_stats);
 
 /**
  * The default character: at the origin, clip 0 from time 0, speed 1. Returns a value the host
@@ -2248,6 +2298,36 @@ SlodResult slod_character_skinned_vertices(const struct SlodWorld *world,
                                            float *normals,
                                            size_t cap,
                                            size_t *out_len);
+
+/**
+ * Turns a character: `rotation` is a quaternion `{x, y, z, w}` (finite, non-zero length;
+ * normalised) mapping its skeleton model space to the world, about the skeleton's origin.
+ * Distances, projected sizes and errors are measured with it; the matrices the character
+ * reports stay in skeleton model space.
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+ * (nothing changed).
+ *
+ * # Safety
+ * `world` NULL or a live world; `rotation` NULL or valid for a read.
+ */
+SlodResult slod_character_set_rotation(struct SlodWorld *world,
+                                       struct SlodCharacterId character,
+                                       const float (*rotation)[4]);
+
+/**
+ * Scales a character uniformly about its skeleton's origin (finite, in (0, 1e4]; 1 by
+ * default).
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+ * (nothing changed).
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_character_set_scale(struct SlodWorld *world,
+                                    struct SlodCharacterId character,
+                                    float scale);
 
 #ifdef __cplusplus
 }  // extern "C"

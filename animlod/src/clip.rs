@@ -107,7 +107,7 @@ pub struct ClipOptions {
     /// multi-key channel is sampled, as a runtime without this optimisation would), which
     /// benchmarks use as a reference.
     pub constant_tolerance: f32,
-    /// The same for translation channels, in model units ([`crate::Rig::scaled`] scales it with
+    /// The same for translation channels, in model units ([`crate::build::scaled`] scales it with
     /// the rig, so a rig in centimetres keeps the constant channels it had in metres).
     pub translation_tolerance: f32,
 }

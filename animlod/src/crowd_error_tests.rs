@@ -293,3 +293,98 @@ fn bundled_meshes_skin_and_held_characters_keep_their_output() {
         assert_eq!(c.pose_changed(id).unwrap(), animated > 0);
     }
 }
+
+#[test]
+fn rotated_and_scaled_characters_are_measured_in_the_world() {
+    let rig = rotating_leaf(1.0, 1.0);
+    let mut c = Crowd::new(rig.clone());
+    let id = c.add_character(Vec3::ZERO, ClipId::new(0)).unwrap();
+    // Bad transforms are refused and change nothing.
+    assert!(c.set_scale(id, 0.0).is_err());
+    assert!(c.set_scale(id, f32::NAN).is_err());
+    assert!(
+        c.set_rotation(id, Quat::from_xyzw(0.0, 0.0, 0.0, 0.0))
+            .is_err()
+    );
+    assert_eq!(c.world_transform(id).unwrap(), glam::Affine3A::IDENTITY);
+    c.set_scale(id, 2.0).unwrap();
+    c.set_rotation(id, Quat::from_rotation_y(1.0) * 3.0)
+        .unwrap();
+    let w = c.world_transform(id).unwrap();
+    assert!(
+        w.transform_point3(Vec3::Y)
+            .abs_diff_eq(Vec3::new(0.0, 2.0, 0.0), 1e-5)
+    );
+    c.set_lod(LodMode::Ratio(0.0)).unwrap();
+    let view = view_at(8.0);
+    for _ in 0..30 {
+        c.advance(1.0 / 60.0, &view).unwrap();
+    }
+    // Twice the size: the frozen tip is twice as far off, in world units.
+    let e = c.pose_error(id, &view).unwrap();
+    assert!((e.max - 4.0 * 0.25f32.sin()).abs() < 2e-3, "{e:?}");
+    // The error bound holds on screen for a scaled character too.
+    c.set_lod(LodMode::ErrorBound { max_error_px: 0.5 })
+        .unwrap();
+    let far = view_at(800.0);
+    let mut worst = 0.0f32;
+    for _ in 0..300 {
+        c.advance(1.0 / 60.0, &far).unwrap();
+        worst = worst.max(c.pose_error(id, &far).unwrap().max_px);
+    }
+    assert!(worst > 0.0 && worst <= 0.5 * 1.02, "{worst}");
+}
+
+#[test]
+fn a_parallel_crowd_gives_the_serial_poses() {
+    let rig = Arc::new(crate::build::import_path(&asset("GDQuest_GDBot.glb")).unwrap());
+    let clips: Vec<ClipId> = (0..rig.clips().len()).map(ClipId::new).collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    for lod in [
+        LodMode::Off,
+        LodMode::Ratio(0.4),
+        LodMode::DEFAULT_PIXEL_SIZE,
+        LodMode::Range {
+            min: 5.0,
+            max: 40.0,
+        },
+        LodMode::ErrorBound { max_error_px: 1.0 },
+    ] {
+        let (mut serial, mut parallel) = (Crowd::new(rig.clone()), Crowd::new(rig.clone()));
+        parallel.set_parallel(true);
+        for c in [&mut serial, &mut parallel] {
+            for i in 0..150 {
+                let clip = clips[i % clips.len()];
+                let id = c
+                    .add_character(
+                        Vec3::new((i % 15) as f32, 0.0, -((i / 15) as f32) * 3.0),
+                        clip,
+                    )
+                    .unwrap();
+                c.set_time(id, 0.07 * i as f32).unwrap();
+            }
+            c.set_lod(lod).unwrap();
+        }
+        let view = view_at(6.0);
+        for _ in 0..20 {
+            let a = serial.advance(1.0 / 60.0, &view).unwrap();
+            let b = pool
+                .install(|| parallel.advance(1.0 / 60.0, &view))
+                .unwrap();
+            assert_eq!(a, b, "{lod:?}");
+        }
+        for (a, b) in serial.character_ids().zip(parallel.character_ids()) {
+            assert_eq!(
+                serial.model_matrices(a).unwrap(),
+                parallel.model_matrices(b).unwrap()
+            );
+            assert_eq!(
+                serial.pose_changed(a).unwrap(),
+                parallel.pose_changed(b).unwrap()
+            );
+        }
+    }
+}

@@ -5,17 +5,21 @@
 //! The pieces, in the order data flows:
 //! - The build step, [`build`] (offline, once per rig): glTF import ([`build::import_path`]) or
 //!   parts built in code ([`build::rig`]); constant channels are folded away; each clip's
-//!   [`SubPriorities`] table — static per-keyframe priorities of every animated bone (thesis
+//!   priority table — static per-keyframe priorities of every animated bone (thesis
 //!   ch. 10–12, with its two defects fixed) and measured hold error rates — is computed; and
 //!   [`build::analysis::derive_weights`] fits the [`PriorityWeights`] to measured pose error.
-//! - [`Rig`] — the plain runtime data the build step produces: a [`Skeleton`], its [`Clip`]s
-//!   and [`Skin`]s, and one priority table per clip.
+//! - [`Rig`] — the plain runtime data the build step produces: a [`Skeleton`], its [`Clip`]s,
+//!   [`Skin`]s and [`SkinnedMesh`]es, and one priority table per clip.
 //! - [`Crowd`] — characters sharing an `Arc<Rig>`; [`LodMode`] and the frame's
-//!   [`salience::View`] give each its camera ratio Ω; the [`scheduler`] turns priority × Ω into an update period per bone (the
-//!   thesis' reading), [`LodMode::Budget`] spends a fixed number of interpolations per frame over
-//!   the crowd, and [`LodMode::ErrorBound`] holds a bone only while its measured on-screen drift
-//!   stays under a pixel bound; [`Crowd::advance`] samples, holds and concatenates (skipping
-//!   subtrees that held); [`Crowd::pose_error`] measures the cost against full-rate evaluation.
+//!   [`salience::View`] give each its camera ratio Ω; the scheduler turns priority × Ω into an
+//!   update period per bone (the thesis' reading), [`LodMode::Budget`] spends a fixed number of
+//!   interpolations per frame over the crowd, and [`LodMode::ErrorBound`] holds a bone only while
+//!   the drift of it and its held ancestors stays under a pixel bound; [`Crowd::advance`]
+//!   samples, holds and concatenates (skipping subtrees that held); [`Crowd::pose_changed`]
+//!   says when a character's skinned output can be reused; [`Crowd::pose_error`] measures the
+//!   cost against full-rate evaluation at every joint's origin and tip ([`Skeleton::tip`]).
+//! - [`SkinningJob`] — CPU linear-blend skinning of a [`SkinnedMesh`] with a character's palette
+//!   ([`Crowd::skinning_matrices`]).
 //!
 //! The thesis' crowd test and other experiments live in the `slod-experiments` crate.
 #![forbid(unsafe_code)]
@@ -44,7 +48,7 @@ pub use ids::{BoneId, CharacterId, ClipId, SkinId};
 pub use lod::LodMode;
 pub use mesh::{SkinnedMesh, SkinningJob};
 pub use pose_error::{ErrorSum, PoseError};
-pub use priority::{Factor, PriorityWeights, SubPriorities};
+pub use priority::{Factor, PriorityWeights};
 pub use rig::{Rig, Skin};
 pub use scheduler::SchedulerParams;
 pub use skeleton::{BoneDesc, MAX_BONES, Skeleton};

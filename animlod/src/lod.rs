@@ -42,7 +42,7 @@ pub enum LodMode {
     },
     /// Beyond the thesis: hold a bone only while the on-screen error its hold causes stays under
     /// a bound. Each animated bone integrates its measured hold error rate
-    /// ([`crate::SubPriorities::hold_error_rate`]) over the time it holds, converts it to pixels
+    /// (the priority table\'s `hold_error_rate`) over the time it holds, converts it to pixels
     /// at the character's nearest visible depth, and interpolates as soon as that reaches
     /// `max_error_px`. Invisible characters do not animate.
     ErrorBound {

@@ -4,7 +4,7 @@
 //! compression error at virtual vertices; Frechette, "Animation Compression Library", 2017–).
 //! A joint's error is the larger of the two.
 
-use glam::{Mat4, Vec3};
+use glam::{Affine3A, Mat4, Vec3};
 
 use salience::View;
 
@@ -50,14 +50,14 @@ impl ErrorSum {
     }
 
     /// Adds every joint of a pose, at its origin and its tip: `pose` and `reference` are model
-    /// matrices of `skeleton`'s bones, the character stands at `position` (world = model +
-    /// position).
+    /// matrices of `skeleton`'s bones, `world` the character's model-to-world transform
+    /// ([`crate::Crowd::world_transform`]). Errors are measured in world units.
     pub fn add_pose(
         &mut self,
         skeleton: &Skeleton,
         pose: &[Mat4],
         reference: &[Mat4],
-        position: Vec3,
+        world: &Affine3A,
         view: &View,
     ) {
         let tips = skeleton.tips();
@@ -71,7 +71,7 @@ impl ErrorSum {
             if !j {
                 continue;
             }
-            let (e, px) = point_pair_error(a, b, tip, position, view);
+            let (e, px) = point_pair_error(a, b, tip, world, view);
             self.add_px(e, px);
         }
     }
@@ -128,21 +128,22 @@ impl ErrorSum {
 }
 
 /// One joint's error between two model matrices, at the joint's origin and at its tip (`tip` in
-/// the bone's local space): the larger displacement in units, and the larger in pixels through
-/// `view` (`None` when neither reference point is in view).
+/// the bone's local space), placed in the world by `world`: the larger displacement in world
+/// units, and the larger in pixels through `view` (`None` when neither reference point is in
+/// view).
 #[inline]
 pub(crate) fn point_pair_error(
     pose: &Mat4,
     reference: &Mat4,
     tip: Vec3,
-    position: Vec3,
+    world: &Affine3A,
     view: &View,
 ) -> (f32, Option<f32>) {
-    let (oa, ob) = (pose.w_axis.truncate(), reference.w_axis.truncate());
-    let (ta, tb) = (pose.transform_point3(tip), reference.transform_point3(tip));
+    let w = |m: &Mat4, p: Vec3| world.transform_point3(m.transform_point3(p));
+    let (oa, ob) = (w(pose, Vec3::ZERO), w(reference, Vec3::ZERO));
+    let (ta, tb) = (w(pose, tip), w(reference, tip));
     let (eo, et) = (oa.distance(ob), ta.distance(tb));
     let px = |e: f32, at: Vec3| {
-        let at = position + at;
         view.is_in_view(at, 0.0)
             .then(|| e * view.pixels_per_unit(at))
     };

@@ -125,15 +125,17 @@ impl Default for PriorityWeights {
 ///
 /// The segments are those of the clip's *timeline*: the union of the key times of its animated
 /// channels (for a typical export, simply its keys). Motion factors are stored per segment and
-/// animated bone (`[segment * bones + slot]`, slot = position in [`Clip::animated_bones`]);
+/// animated bone (`[segment * bones + slot]`, slot = position in [`crate::Clip::animated_bones`]);
 /// structural factors per animated bone. The user factor is applied by the crowd.
 #[derive(Clone, Debug, Default)]
-pub struct SubPriorities {
+pub(crate) struct SubPriorities {
     pub(crate) timeline: Vec<f32>,
     pub(crate) slots: usize,
     pub(crate) motion: [Vec<f32>; 3],
     pub(crate) descendants: Vec<f32>,
     pub(crate) depth: Vec<f32>,
+    // Folded into the motion factors at build time; read back by tests only.
+    #[cfg_attr(not(test), allow(dead_code))]
     pub(crate) max_rate: [f32; 3],
     /// Measured hold error rate per `[segment * bones + slot]`: the fastest any joint moves away
     /// from where it should be while this bone alone holds (model units per second).
@@ -143,18 +145,18 @@ pub struct SubPriorities {
     /// Largest `hold_max` of the clip.
     pub(crate) hold_max_peak: f32,
     /// Per animated-bone slot: the displacement (model units) a hold across the looping clip's
-    /// end→start jump adds (see [`SubPriorities::wrap_jump`]).
+    /// end→start jump adds (the build step computes it).
     pub(crate) wrap_jump: Vec<f32>,
 }
 
 impl SubPriorities {
     /// Number of key segments.
-    pub fn segment_count(&self) -> usize {
+    pub(crate) fn segment_count(&self) -> usize {
         self.timeline.len().saturating_sub(1).max(1)
     }
 
     /// Number of animated bones (columns of the table).
-    pub fn bone_count(&self) -> usize {
+    pub(crate) fn bone_count(&self) -> usize {
         self.slots
     }
 
@@ -179,7 +181,8 @@ impl SubPriorities {
 
     /// Largest translation (units/s), rotation (tip speed, units/s) and scale (1/s) rates over
     /// the clip: the normalisers of the motion factors.
-    pub fn max_rates(&self) -> [f32; 3] {
+    #[cfg(test)]
+    pub(crate) fn max_rates(&self) -> [f32; 3] {
         self.max_rate
     }
 
@@ -187,16 +190,9 @@ impl SubPriorities {
     /// second) the joint origin or tip that drifts most moves away from its true position while
     /// this bone alone holds its local transform from the segment start. Computed by the build step by
     /// replaying the segment with the bone held.
-    pub fn hold_error_rate(&self, segment: usize, slot: usize) -> f32 {
+    #[cfg(test)]
+    pub(crate) fn hold_error_rate(&self, segment: usize, slot: usize) -> f32 {
         self.hold_max[segment * self.slots + slot]
-    }
-
-    /// The jump a hold of animated bone `slot` across the looping clip's end→start wrap adds to
-    /// its error: the largest displacement of a joint origin or tip while that bone alone keeps
-    /// its end pose and the rest is at the start pose (model units). Zero for clips whose last
-    /// pose equals their first.
-    pub fn wrap_jump(&self, slot: usize) -> f32 {
-        self.wrap_jump[slot]
     }
 
     /// The summed (over joints) hold error rate of animated bone `slot` in `segment`.
@@ -215,7 +211,7 @@ impl SubPriorities {
 
     /// One sub-priority in `[0, 1]` of animated bone `slot` in `segment` (the user factor is
     /// reported as 1: it is applied per crowd).
-    pub fn get(&self, factor: Factor, segment: usize, slot: usize) -> f32 {
+    pub(crate) fn get(&self, factor: Factor, segment: usize, slot: usize) -> f32 {
         match factor {
             Factor::Translation => self.motion[0][segment * self.slots + slot],
             Factor::Rotation => self.motion[1][segment * self.slots + slot],

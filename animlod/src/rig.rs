@@ -101,7 +101,8 @@ impl Rig {
     }
 
     /// The priority table of a clip (computed by the build step).
-    pub fn priorities(&self, id: ClipId) -> Option<&SubPriorities> {
+    #[cfg(test)]
+    pub(crate) fn priorities(&self, id: ClipId) -> Option<&SubPriorities> {
         self.priorities.get(id.index())
     }
 

@@ -477,7 +477,9 @@ fn render_sweep(section: &CrowdSection, s: &SweepReport) -> String {
         ),
         &[
             "distance",
+            "in view",
             "full ms",
+            "cull ms",
             "LOD ms",
             "cost",
             "interp/frame",
@@ -490,7 +492,9 @@ fn render_sweep(section: &CrowdSection, s: &SweepReport) -> String {
     for r in &s.rows {
         t.row([
             num(r.distance as f64, 0),
+            num(r.visible_characters, 0),
             num(r.full_ms, 3),
+            num(r.cull_ms, 3),
             num(r.lod_ms, 3),
             num(r.cost_ratio, 2),
             format!(

@@ -348,12 +348,12 @@ pub fn run(rig: &Arc<Rig>, cfg: &CrowdExperiment) -> Result<Vec<SweepRow>, Crowd
             row.frozen += sl.characters_frozen as f64;
             for (&a, &b) in ids.iter().zip(&lod_ids) {
                 row.mean_ratio += lod.ratio(b)? as f64;
-                let position = full.position(a)?;
+                let world = full.world_transform(a)?;
                 sum.add_pose(
                     sk,
                     lod.model_matrices(b)?,
                     full.model_matrices(a)?,
-                    position,
+                    &world,
                     &view,
                 );
             }

@@ -293,7 +293,7 @@ pub fn run_large(
                         sk,
                         lod.shards[s].model_matrices(b)?,
                         full.shards[s].model_matrices(a)?,
-                        full.shards[s].position(a)?,
+                        &full.shards[s].world_transform(a)?,
                         &view,
                     );
                 }
@@ -445,16 +445,16 @@ pub fn run_pipeline(rig: &Arc<Rig>, setup: &LargeSetup) -> Result<PipelineRow, C
             Some(full) => {
                 let sk = rig.skeleton();
                 let bones = sk.len();
-                let positions: Vec<Vec3> = s
+                let worlds = s
                     .shards
                     .iter()
                     .zip(&s.ids)
-                    .flat_map(|(c, ids)| ids.iter().map(|&id| c.position(id).unwrap_or(Vec3::ZERO)))
-                    .collect();
+                    .flat_map(|(c, ids)| ids.iter().map(|&id| c.world_transform(id)))
+                    .collect::<Result<Vec<_>, _>>()?;
                 for (a, b) in poses_per_frame.iter().zip(full) {
-                    for (i, p) in positions.iter().enumerate() {
+                    for (i, w) in worlds.iter().enumerate() {
                         let r = i * bones..(i + 1) * bones;
-                        sum.add_pose(sk, &a[r.clone()], &b[r], *p, &view);
+                        sum.add_pose(sk, &a[r.clone()], &b[r], w, &view);
                     }
                 }
             }

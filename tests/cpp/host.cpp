@@ -217,6 +217,28 @@ void crowd_checks(slod::World &world, const char *rig_path) {
     EXPECT(skin.size() == rig.skin_joint_count(0));
     EXPECT_ERROR(crowd.skinning_matrices(chars[0], 99), SLOD_RESULT_INVALID_ARGUMENT);
 
+    // Bone structure, CPU skinning and the pose error over the C ABI (raw calls).
+    size_t nb = 0;
+    EXPECT(slod_rig_bone_parents(world.get(), rig.id(), nullptr, 0, &nb) == SLOD_RESULT_OK);
+    EXPECT(nb == info.bones);
+    std::vector<uint32_t> parents(nb);
+    EXPECT(slod_rig_bone_parents(world.get(), rig.id(), parents.data(), nb, &nb) ==
+           SLOD_RESULT_OK);
+    for (size_t b = 0; b < nb; ++b) EXPECT(parents[b] == SLOD_NO_PARENT || parents[b] < b);
+    size_t nv = 0;
+    EXPECT(slod_character_skinned_vertices(world.get(), chars[0], 0, nullptr, nullptr, 0, &nv) ==
+           SLOD_RESULT_OK);
+    EXPECT(nv > 0);
+    std::vector<float> pos(3 * nv), nrm(3 * nv);
+    EXPECT(slod_character_skinned_vertices(world.get(), chars[0], 0,
+                                           reinterpret_cast<float (*)[3]>(pos.data()),
+                                           reinterpret_cast<float (*)[3]>(nrm.data()), nv,
+                                           &nv) == SLOD_RESULT_OK);
+    for (size_t i = 0; i < 3 * nv; ++i) EXPECT(std::isfinite(pos[i]) && std::isfinite(nrm[i]));
+    SlodPoseError err{};
+    EXPECT(slod_character_pose_error(world.get(), chars[0], &err) == SLOD_RESULT_OK);
+    EXPECT(err.max_px == 0.0f); // LOD off: exact
+
     // Distance range: everyone beyond max holds every bone.
     SlodLodDesc lod = slod_default_lod_desc();
     lod.mode = SLOD_LOD_MODE_RANGE;

@@ -5,7 +5,7 @@
 //! # What is fitted
 //!
 //! For every key segment `j` and animated bone `b` of a clip the rig holds, from the build step, the
-//! *hold error rate* `e` ([`crate::SubPriorities::hold_error_rate_sum`]): hold `b`'s local transform at
+//! *hold error rate* `e` (the priority table\'s `hold_error_rate_sum`): hold `b`'s local transform at
 //! the segment start while everything else plays to the segment end, and sum the resulting
 //! model-space displacement of every joint (the bone's whole subtree moves with it), divided by
 //! the segment length. Under the scheduler's mapping a bone's
@@ -45,7 +45,7 @@ struct Sample {
 }
 
 /// Samples of one clip: the six sub-priorities and the summed hold error rate measured at load
-/// time (see [`crate::SubPriorities::hold_error_rate_sum`]), normalised per clip and square-rooted.
+/// time (see the priority table\'s `hold_error_rate_sum`), normalised per clip and square-rooted.
 fn clip_samples(rig: &Rig, clip: ClipId, out: &mut Vec<Sample>) {
     let sub = &rig.priorities[clip.index()];
     let first = out.len();

@@ -20,7 +20,7 @@ use crate::rig::{Rig, Skin};
 use crate::skeleton::{BoneDesc, Skeleton};
 
 pub use import::{ImportOptions, ImportReport};
-pub use priorities::priorities;
+use priorities::priorities;
 
 #[cfg(test)]
 pub(crate) use import::tests;

@@ -1,6 +1,6 @@
 //! The build step's priority pass: the static per-keyframe sub-priorities of a clip's animated
 //! bones (`animation-lod-bone-priority-thesis.txt`, chapters 10–12; the departures from the thesis
-//! are listed in [`crate::SubPriorities`]'s module) and the measured hold error rates the
+//! are listed in the `priority` module) and the measured hold error rates the
 //! error-bound mode and the analysis pass use.
 
 use glam::{Affine3A, Mat4};
@@ -12,7 +12,7 @@ use crate::transform::{concat, rotation_angle};
 
 /// Computes the priority table of a built clip: per key segment, the motion factors and the
 /// measured hold error rates of each animated bone; per animated bone, the structural factors.
-pub fn priorities(clip: &Clip, skeleton: &Skeleton) -> SubPriorities {
+pub(crate) fn priorities(clip: &Clip, skeleton: &Skeleton) -> SubPriorities {
     let mut timeline: Vec<f32> = clip.groups.iter().flatten().copied().collect();
     timeline.sort_by(f32::total_cmp);
     timeline.dedup_by(|a, b| (*a - *b).abs() <= 1e-6 * b.abs().max(1.0));

@@ -49,6 +49,6 @@ impl Crowd {
         clip.sample_locals(c.time, &mut Vec::new(), &mut trs, locals);
         let skeleton = self.rig.skeleton();
         skeleton.model_matrices(locals, reference);
-        sum.add_pose(skeleton, models, reference, c.position, view);
+        sum.add_pose(skeleton, models, reference, &c.world(), view);
     }
 }

@@ -5,6 +5,7 @@
 use std::time::Instant;
 
 use glam::{Affine3A, Mat4};
+use rayon::prelude::*;
 use salience::View;
 
 use super::*;
@@ -162,9 +163,11 @@ impl Crowd {
                     .for_each(|l| *l -= shift);
             }
             c.step = step;
-            let world = c.position + center;
+            let world = c.world().transform_point3(center);
+            let radius = radius * c.scale;
             c.size_px = view.projected_radius_px(world, radius);
-            c.near_ppu = view.max_pixels_per_unit(world, radius);
+            // Pixels per model unit: the view's per world unit times the character's scale.
+            c.near_ppu = view.max_pixels_per_unit(world, radius) * c.scale;
             let visible = view.sphere_in_view(world, radius);
             c.omega = match lod {
                 LodMode::Off | LodMode::Budget { .. } | LodMode::ErrorBound { .. } => 1.0,
@@ -203,161 +206,244 @@ impl Crowd {
             0
         };
         self.frame = self.frame.wrapping_add(1);
-        let mut d = start;
-        for _ in 0..len {
-            let st = self.advance_one(d, budget.map(|b| b.0), &mut partial_left);
-            self.chars[d].changed = st.bones_concatenated > 0;
-            stats += st;
-            d += 1;
-            if d == len {
-                d = 0;
+        let shared = Shared {
+            rig: &self.rig,
+            lod: self.lod,
+            params: &self.params,
+            tables: &self.tables,
+            stage_timing: self.stage_timing,
+            bones: self.bones,
+        };
+        let stride = self.stride;
+        if self.parallel && budget.is_none() {
+            // Characters are independent outside budget mode: chunks of them run on the rayon
+            // pool, each with its own scratch; the stats are summed in chunk order, so the
+            // poses and counts equal a serial run's.
+            let per_chunk: Vec<FrameStats> = self
+                .chars
+                .par_chunks_mut(PARALLEL_CHUNK)
+                .zip(self.locals.par_chunks_mut(PARALLEL_CHUNK * stride))
+                .zip(self.models.par_chunks_mut(PARALLEL_CHUNK * stride))
+                .zip(self.last_update.par_chunks_mut(PARALLEL_CHUNK * stride))
+                .zip(self.drift.par_chunks_mut(PARALLEL_CHUNK * stride))
+                .map_init(
+                    || Scratch::new(shared.bones),
+                    |s, ((((chars, locals), models), last), drift)| {
+                        let mut sum = FrameStats::default();
+                        for (i, c) in chars.iter_mut().enumerate() {
+                            let r = i * stride..i * stride + shared.bones;
+                            let lanes = Lanes {
+                                locals: &mut locals[r.clone()],
+                                models: &mut models[r.clone()],
+                                last: &mut last[r.clone()],
+                                drift: &mut drift[r],
+                            };
+                            let st = advance_character(&shared, c, lanes, s, None, &mut 0);
+                            c.changed = st.bones_concatenated > 0;
+                            sum += st;
+                        }
+                        sum
+                    },
+                )
+                .collect();
+            for st in per_chunk {
+                stats += st;
             }
+        } else {
+            let bins = std::mem::take(&mut self.scratch.bins);
+            let mut d = start;
+            for _ in 0..len {
+                let r = d * stride..d * stride + self.bones;
+                let lanes = Lanes {
+                    locals: &mut self.locals[r.clone()],
+                    models: &mut self.models[r.clone()],
+                    last: &mut self.last_update[r.clone()],
+                    drift: &mut self.drift[r],
+                };
+                let cut = budget.map(|b| (b.0, &bins[d * stride..(d + 1) * stride]));
+                let c = &mut self.chars[d];
+                let st =
+                    advance_character(&shared, c, lanes, &mut self.scratch, cut, &mut partial_left);
+                c.changed = st.bones_concatenated > 0;
+                stats += st;
+                d += 1;
+                if d == len {
+                    d = 0;
+                }
+            }
+            self.scratch.bins = bins;
         }
+        self.last_stats = stats;
         Ok(stats)
     }
+}
 
-    fn advance_one(
-        &mut self,
-        d: usize,
-        budget: Option<usize>,
-        partial_left: &mut u32,
-    ) -> FrameStats {
-        let n = self.bones;
-        let span = self.span(d);
-        let c = self.chars[d];
-        let rig = &*self.rig;
-        let clip = &rig.clips()[c.clip.index()];
-        let parents = rig.skeleton().parents_raw();
-        let animated = clip.animated.len() as u64;
-        let mut st = FrameStats {
-            characters: 1,
-            bones_constant: n as u64 - animated,
-            ..FrameStats::default()
-        };
-        let locals = &mut self.locals[span.clone()];
-        let models = &mut self.models[span.clone()];
-        let last = &mut self.last_update[span.clone()];
-        let drift = &mut self.drift[span];
-        let s = &mut self.scratch;
-        let error_bound = match self.lod {
-            LodMode::ErrorBound { max_error_px } => Some(max_error_px),
-            _ => None,
-        };
-        let slots = clip.animated.len();
-        let mut full = budget.is_none() && error_bound.is_none() && c.omega >= 1.0;
-        if budget.is_none() && error_bound.is_none() && c.omega <= 0.0 {
+/// Characters per parallel task (enough work per task to outweigh scheduling).
+const PARALLEL_CHUNK: usize = 32;
+
+/// What every character of a frame reads.
+struct Shared<'a> {
+    rig: &'a Rig,
+    lod: LodMode,
+    params: &'a SchedulerParams,
+    tables: &'a [Vec<f32>],
+    stage_timing: bool,
+    bones: usize,
+}
+
+/// One character's bone arrays.
+struct Lanes<'a> {
+    locals: &'a mut [Affine3A],
+    models: &'a mut [Mat4],
+    last: &'a mut [f32],
+    drift: &'a mut [f32],
+}
+
+/// Samples, holds and concatenates one character under the frame's LOD mode; `budget` is the
+/// budget's cut and this character's score bins (budget mode only).
+fn advance_character(
+    sh: &Shared<'_>,
+    c: &mut Character,
+    lanes: Lanes<'_>,
+    s: &mut Scratch,
+    budget: Option<(usize, &[u16])>,
+    partial_left: &mut u32,
+) -> FrameStats {
+    let n = sh.bones;
+    let c = *c;
+    let rig = sh.rig;
+    let clip = &rig.clips()[c.clip.index()];
+    let parents = rig.skeleton().parents_raw();
+    let animated = clip.animated.len() as u64;
+    let mut st = FrameStats {
+        characters: 1,
+        bones_constant: n as u64 - animated,
+        ..FrameStats::default()
+    };
+    let Lanes {
+        locals,
+        models,
+        last,
+        drift,
+    } = lanes;
+    let error_bound = match sh.lod {
+        LodMode::ErrorBound { max_error_px } => Some(max_error_px),
+        _ => None,
+    };
+    let slots = clip.animated.len();
+    let mut full = budget.is_none() && error_bound.is_none() && c.omega >= 1.0;
+    if budget.is_none() && error_bound.is_none() && c.omega <= 0.0 {
+        st.bones_held = animated;
+        st.characters_frozen = 1;
+        return st;
+    }
+    let mut count = slots;
+    if !full {
+        let sub = &rig.priorities[c.clip.index()];
+        let go = &mut s.go[..slots];
+        let last = &mut last[..slots];
+        count = match budget {
+            None if error_bound.is_some() => {
+                let rates = step_row(&sub.hold_max, slots, sub.segment_count(), &c, &mut s.row);
+                let tol = error_bound.unwrap_or(f32::INFINITY);
+                ErrorBoundJob {
+                    rates,
+                    jumps: if c.wrapped { &sub.wrap_jump } else { &[] },
+                    ancestors: &clip.ancestor_slot,
+                    step: c.step,
+                    pixels_per_unit: c.near_ppu,
+                    tolerance_px: tol,
+                    clock: c.clock,
+                    drift: &mut drift[..slots],
+                    last,
+                    go,
+                    chain: &mut s.chain[..slots],
+                }
+                .run()
+            }
+            None => {
+                let row = step_row(
+                    &sh.tables[c.clip.index()],
+                    slots,
+                    sub.segment_count(),
+                    &c,
+                    &mut s.row,
+                );
+                schedule(row, c.omega, sh.params, c.clock, last, go)
+            }
+            Some((cut, bins)) => {
+                // Drifts and bins were updated by `budget_cut` this frame.
+                let bins = &bins[..slots];
+                let mut count = 0;
+                for (((g, l), e), &bin) in go
+                    .iter_mut()
+                    .zip(last.iter_mut())
+                    .zip(drift[..slots].iter_mut())
+                    .zip(bins)
+                {
+                    let bin = bin as usize;
+                    let partial = bin == cut && *partial_left > 0;
+                    let update = bin > cut || partial;
+                    *partial_left -= partial as u32;
+                    *l = if update { c.clock } else { *l };
+                    *e = if update { 0.0 } else { *e };
+                    *g = update as u8;
+                    count += update as u32;
+                }
+                count
+            }
+        } as usize;
+        if count == 0 {
             st.bones_held = animated;
             st.characters_frozen = 1;
             return st;
         }
-        let mut count = slots;
-        if !full {
-            let sub = &rig.priorities[c.clip.index()];
-            let go = &mut s.go[..slots];
-            let last = &mut last[..slots];
-            count = match budget {
-                None if error_bound.is_some() => {
-                    let rates = step_row(&sub.hold_max, slots, sub.segment_count(), &c, &mut s.row);
-                    let tol = error_bound.unwrap_or(f32::INFINITY);
-                    ErrorBoundJob {
-                        rates,
-                        jumps: if c.wrapped { &sub.wrap_jump } else { &[] },
-                        ancestors: &clip.ancestor_slot,
-                        step: c.step,
-                        pixels_per_unit: c.near_ppu,
-                        tolerance_px: tol,
-                        clock: c.clock,
-                        drift: &mut drift[..slots],
-                        last,
-                        go,
-                        chain: &mut s.chain[..slots],
-                    }
-                    .run()
-                }
-                None => {
-                    let row = step_row(
-                        &self.tables[c.clip.index()],
-                        slots,
-                        sub.segment_count(),
-                        &c,
-                        &mut s.row,
-                    );
-                    schedule(row, c.omega, &self.params, c.clock, last, go)
-                }
-                Some(cut) => {
-                    // Drifts and bins were updated by `budget_cut` this frame.
-                    let bins = &s.bins[d * self.stride..d * self.stride + slots];
-                    let mut count = 0;
-                    for (((g, l), e), &bin) in go
-                        .iter_mut()
-                        .zip(last.iter_mut())
-                        .zip(drift[..slots].iter_mut())
-                        .zip(bins)
-                    {
-                        let bin = bin as usize;
-                        let partial = bin == cut && *partial_left > 0;
-                        let update = bin > cut || partial;
-                        *partial_left -= partial as u32;
-                        *l = if update { c.clock } else { *l };
-                        *e = if update { 0.0 } else { *e };
-                        *g = update as u8;
-                        count += update as u32;
-                    }
-                    count
-                }
-            } as usize;
-            if count == 0 {
-                st.bones_held = animated;
-                st.characters_frozen = 1;
-                return st;
-            }
-            // When most bones are due anyway, interpolating all of them through the contiguous
-            // block path costs less than picking them out one by one. Not in budget mode, whose
-            // count must stay within the budget.
-            if budget.is_none() && 2 * count >= slots {
-                full = true;
-                count = slots;
-            }
+        // When most bones are due anyway, interpolating all of them through the contiguous
+        // block path costs less than picking them out one by one. Not in budget mode, whose
+        // count must stay within the budget.
+        if budget.is_none() && 2 * count >= slots {
+            full = true;
+            count = slots;
         }
-        st.bones_interpolated = count as u64;
-        st.bones_held = animated - count as u64;
-        let clock = self.stage_timing.then(Instant::now);
-        s.trs.prepare(clip.base_pose());
-        clip.locate_all(c.time, &mut s.cursors);
-        if full {
-            clip.sample(&s.cursors, &mut s.trs);
-            clip.compose(&s.trs, locals);
-            last[..slots].fill(c.clock);
-            drift[..slots].fill(0.0);
-            let sampled = clock.map(|t| (t, Instant::now()));
-            concat_moving(parents, &clip.moving, locals, models);
-            st.bones_concatenated = clip.moving.len() as u64;
-            stage_times(&mut st, sampled);
-            return st;
-        }
-        // Branch-free: the update pattern is data-dependent.
-        s.mask.fill(0);
-        let mut k = 0usize;
-        for (i, (&b, &g)) in clip.animated.iter().zip(&s.go[..slots]).enumerate() {
-            s.mask[b as usize] = g;
-            s.updated[k] = i as u32;
-            k += g as usize;
-        }
-        clip.sample_slots(&s.cursors, &s.updated[..k], &mut s.trs, locals);
-        let sampled = clock.map(|t| (t, Instant::now()));
-        let sentinel = rig.skeleton().parents_sentinel();
-        st.bones_concatenated = concat_changed(
-            parents,
-            sentinel,
-            &s.mask,
-            &mut s.dirty,
-            &mut s.list,
-            locals,
-            models,
-        ) as u64;
-        stage_times(&mut st, sampled);
-        st
     }
+    st.bones_interpolated = count as u64;
+    st.bones_held = animated - count as u64;
+    let clock = sh.stage_timing.then(Instant::now);
+    s.trs.prepare(clip.base_pose());
+    clip.locate_all(c.time, &mut s.cursors);
+    if full {
+        clip.sample(&s.cursors, &mut s.trs);
+        clip.compose(&s.trs, locals);
+        last[..slots].fill(c.clock);
+        drift[..slots].fill(0.0);
+        let sampled = clock.map(|t| (t, Instant::now()));
+        concat_moving(parents, &clip.moving, locals, models);
+        st.bones_concatenated = clip.moving.len() as u64;
+        stage_times(&mut st, sampled);
+        return st;
+    }
+    // Branch-free: the update pattern is data-dependent.
+    s.mask.fill(0);
+    let mut k = 0usize;
+    for (i, (&b, &g)) in clip.animated.iter().zip(&s.go[..slots]).enumerate() {
+        s.mask[b as usize] = g;
+        s.updated[k] = i as u32;
+        k += g as usize;
+    }
+    clip.sample_slots(&s.cursors, &s.updated[..k], &mut s.trs, locals);
+    let sampled = clock.map(|t| (t, Instant::now()));
+    let sentinel = rig.skeleton().parents_sentinel();
+    st.bones_concatenated = concat_changed(
+        parents,
+        sentinel,
+        &s.mask,
+        &mut s.dirty,
+        &mut s.list,
+        locals,
+        models,
+    ) as u64;
+    stage_times(&mut st, sampled);
+    st
 }
 
 /// With stage timing on: the sampling time (from `start` to `sampled`) and the concatenation

@@ -14,7 +14,7 @@ use std::sync::Arc;
 
 use slod_core::{Arena, Generations, Handle};
 
-use glam::{Affine3A, Mat4, Vec3};
+use glam::{Affine3A, Mat4, Quat, Vec3};
 
 use crate::clip::{Clip, Cursor, TrsScratch};
 use crate::error::{CrowdError, invalid};
@@ -35,7 +35,7 @@ pub enum PrioritySource {
     #[default]
     Factors,
     /// The measured hold error rate of each bone keyframe over its clip's peak — what the six
-    /// factors approximate (see [`crate::SubPriorities::hold_error_rate`]).
+    /// factors approximate (see the priority table\'s `hold_error_rate`).
     HoldError,
 }
 
@@ -83,6 +83,10 @@ const CLOCK_REBASE: f32 = 1024.0;
 struct Character {
     id: CharacterId,
     position: Vec3,
+    /// Orientation of the character (applied to its skeleton model space).
+    rotation: Quat,
+    /// Uniform scale of the character.
+    scale: f32,
     clip: ClipId,
     /// Playback time, wrapped into the clip.
     time: f32,
@@ -107,6 +111,18 @@ struct Character {
     changed: bool,
 }
 
+impl Character {
+    /// Model-to-world transform: scale, rotation, then translation.
+    #[inline]
+    fn world(&self) -> Affine3A {
+        Affine3A::from_scale_rotation_translation(
+            Vec3::splat(self.scale),
+            self.rotation,
+            self.position,
+        )
+    }
+}
+
 /// Scratch reused every frame (no allocation in the frame loop once warmed up).
 #[derive(Clone, Debug, Default)]
 struct Scratch {
@@ -128,6 +144,21 @@ struct Scratch {
     /// Budget mode: each animated-bone slot's score bin this frame (per character stride).
     bins: Vec<u16>,
     dirty: Vec<u8>,
+}
+
+impl Scratch {
+    /// Scratch for a rig of `bones` bones.
+    fn new(bones: usize) -> Scratch {
+        Scratch {
+            mask: vec![0; bones],
+            go: vec![0; bones],
+            dirty: vec![0; bones + 1],
+            updated: vec![0; bones],
+            list: vec![0; bones],
+            chain: vec![0.0; bones],
+            ..Scratch::default()
+        }
+    }
 }
 
 /// Characters sharing one rig, animated with bone-priority LOD.
@@ -158,6 +189,10 @@ pub struct Crowd {
     tables: Vec<Vec<f32>>,
     /// Whether `advance` times its sampling and concatenation stages (see [`FrameStats`]).
     stage_timing: bool,
+    /// What the last `advance` did.
+    last_stats: FrameStats,
+    /// Whether `advance` splits the characters over the rayon pool (not in budget mode).
+    parallel: bool,
     /// Frames advanced (rotates the budget's processing order).
     frame: u64,
     scratch: Scratch,
@@ -198,16 +233,10 @@ impl Crowd {
             user: vec![1.0; bones],
             tables: Vec::new(),
             stage_timing: false,
+            last_stats: FrameStats::default(),
             frame: 0,
-            scratch: Scratch {
-                mask: vec![0; bones],
-                go: vec![0; bones],
-                dirty: vec![0; bones + 1],
-                updated: vec![0; bones],
-                list: vec![0; bones],
-                chain: vec![0.0; bones],
-                ..Scratch::default()
-            },
+            scratch: Scratch::new(bones),
+            parallel: false,
         };
         crowd.rebuild_tables();
         crowd
@@ -255,7 +284,8 @@ impl Crowd {
         self.rig.clip(clip).ok_or(CrowdError::UnknownClip(clip))
     }
 
-    /// Adds a character at `position` (world space; characters are not rotated) playing `clip`
+    /// Adds a character at `position` (world space; unrotated, scale 1 until
+    /// [`Crowd::set_rotation`] / [`Crowd::set_scale`]) playing `clip`
     /// from time 0 at speed 1. Its pose is evaluated at once.
     pub fn add_character(
         &mut self,
@@ -272,6 +302,8 @@ impl Crowd {
         self.chars.push(Character {
             id,
             position,
+            rotation: Quat::IDENTITY,
+            scale: 1.0,
             clip,
             time: 0.0,
             segment: 0,
@@ -333,6 +365,37 @@ impl Crowd {
     /// A character's position.
     pub fn position(&self, id: CharacterId) -> Result<Vec3, CrowdError> {
         Ok(self.chars[self.dense(id)?].position)
+    }
+
+    /// Turns a character: `rotation` (finite, non-zero length; normalised here) maps its
+    /// skeleton model space to world space, about the skeleton's origin. Distances, projected
+    /// sizes and errors are measured with it.
+    pub fn set_rotation(&mut self, id: CharacterId, rotation: Quat) -> Result<(), CrowdError> {
+        if !(rotation.is_finite() && rotation.length() > 1e-6) {
+            return Err(invalid("rotation", "must be finite with a non-zero length"));
+        }
+        let d = self.dense(id)?;
+        self.chars[d].rotation = rotation.normalize();
+        Ok(())
+    }
+
+    /// Scales a character uniformly (finite, > 0; 1 by default): its skeleton model space is
+    /// scaled by `scale` about the skeleton's origin before rotation and translation.
+    pub fn set_scale(&mut self, id: CharacterId, scale: f32) -> Result<(), CrowdError> {
+        if !(scale.is_finite() && scale > 0.0) {
+            return Err(invalid("scale", "must be finite and positive"));
+        }
+        let d = self.dense(id)?;
+        self.chars[d].scale = scale;
+        Ok(())
+    }
+
+    /// A character's model-to-world transform: scale, then rotation, then translation to its
+    /// position. Model matrices ([`Crowd::model_matrices`]) are in skeleton model space; this
+    /// places them in the world.
+    pub fn world_transform(&self, id: CharacterId) -> Result<Affine3A, CrowdError> {
+        let c = &self.chars[self.dense(id)?];
+        Ok(c.world())
     }
 
     /// Switches a character to another clip from time 0; its pose is re-evaluated at once.
@@ -403,9 +466,16 @@ impl Crowd {
         Ok(self.chars[self.dense(id)?].omega)
     }
 
-    /// Sets the LOD mode (validated).
+    /// Sets the LOD mode (validated). A different mode starts from exact poses: every
+    /// character is evaluated in full at its current time, so no hold carries over that the
+    /// new mode has not accounted for (the error bound's drift, for one).
     pub fn set_lod(&mut self, lod: LodMode) -> Result<(), CrowdError> {
         lod.validate()?;
+        if lod != self.lod {
+            for d in 0..self.chars.len() {
+                self.evaluate_full(d);
+            }
+        }
         self.lod = lod;
         Ok(())
     }
@@ -414,6 +484,18 @@ impl Crowd {
     /// per character per frame). Measurement only; poses are the same either way.
     pub fn set_stage_timing(&mut self, on: bool) {
         self.stage_timing = on;
+    }
+
+    /// Splits [`Crowd::advance`] over the current rayon pool (off by default). Outside
+    /// [`LodMode::Budget`], whose crowd-wide cut is serial, characters are independent, so the
+    /// poses and statistics equal a one-thread run's.
+    pub fn set_parallel(&mut self, on: bool) {
+        self.parallel = on;
+    }
+
+    /// What the last [`Crowd::advance`] did (zero before the first).
+    pub fn last_stats(&self) -> &FrameStats {
+        &self.last_stats
     }
 
     /// The LOD mode.
@@ -465,7 +547,7 @@ impl Crowd {
     }
 
     /// The combined priority of every animated bone of `clip` in key segment `segment`
-    /// (`[slot]`, slot = position in [`Clip::animated_bones`]).
+    /// (`[slot]`, slot = position in [`crate::Clip::animated_bones`]).
     pub fn priorities(&self, clip: ClipId, segment: usize) -> Result<&[f32], CrowdError> {
         let c = self.clip_ref(clip)?;
         let slots = c.animated_bone_count();
@@ -516,8 +598,8 @@ impl Crowd {
         Ok(self.chars[self.dense(id)?].changed)
     }
 
-    /// Model-space matrices of a character's bones (skeleton model space; add the character's
-    /// position for world space). Valid until the next mutating call on the crowd.
+    /// Model-space matrices of a character's bones (skeleton model space; apply
+    /// [`Crowd::world_transform`] for world space). Valid until the next mutating call on the crowd.
     pub fn model_matrices(&self, id: CharacterId) -> Result<&[Mat4], CrowdError> {
         let d = self.dense(id)?;
         Ok(&self.models[self.span(d)])

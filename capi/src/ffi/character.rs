@@ -24,8 +24,9 @@ pub const SLOD_MAX_PLAYBACK_SPEED: f32 = 1000.0;
 pub struct SlodCharacterDesc {
     /// Set by `slod_default_character_desc`; do not change.
     pub guard: u32,
-    /// World position of the skeleton's origin (characters are not rotated; every coordinate
-    /// finite, within `SLOD_MAX_COORDINATE`).
+    /// World position of the skeleton's origin (every coordinate finite, within
+    /// `SLOD_MAX_COORDINATE`); turn and scale a character with `slod_character_set_rotation`
+    /// and `slod_character_set_scale`.
     pub position: [f32; 3],
     /// Clip index in the crowd's rig (`0..SlodRigInfo::clips`).
     pub clip: u32,
@@ -463,10 +464,61 @@ pub unsafe extern "C" fn slod_character_skinned_vertices(
     })
 }
 
+/// Turns a character: `rotation` is a quaternion `{x, y, z, w}` (finite, non-zero length;
+/// normalised) mapping its skeleton model space to the world, about the skeleton's origin.
+/// Distances, projected sizes and errors are measured with it; the matrices the character
+/// reports stay in skeleton model space.
+///
+/// Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+/// (nothing changed).
+///
+/// # Safety
+/// `world` NULL or a live world; `rotation` NULL or valid for a read.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_character_set_rotation(
+    world: *mut SlodWorld,
+    character: SlodCharacterId,
+    rotation: *const [f32; 4],
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        // SAFETY: caller contract: NULL or valid for a read.
+        let q = *unsafe { arg(rotation, "rotation") }?;
+        let (c, cid) = character_mut(world, character)?;
+        c.set_rotation(cid, glam::Quat::from_array(q))
+            .map_err(crowd_error)
+    })
+}
+
+/// Scales a character uniformly about its skeleton's origin (finite, in (0, 1e4]; 1 by
+/// default).
+///
+/// Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT`
+/// (nothing changed).
+///
+/// # Safety
+/// `world` NULL or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_character_set_scale(
+    world: *mut SlodWorld,
+    character: SlodCharacterId,
+    scale: f32,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        let (c, cid) = character_mut(world, character)?;
+        in_range(scale, 0.0, 1.0e4, "scale")?;
+        c.set_scale(cid, scale).map_err(crowd_error)
+    })
+}
+
 #[cfg(test)]
 mod tests {
     //! The rig, crowd and character calls issue 13 added, on a real rig.
     use super::super::*;
+    use std::f32::consts::FRAC_1_SQRT_2;
     use std::ptr::{null, null_mut};
 
     #[test]
@@ -596,6 +648,32 @@ mod tests {
                 ),
                 SlodResult::InvalidArgument
             );
+
+            // Rotation and scale: bad values refused.
+            assert_eq!(
+                slod_character_set_rotation(w, ch, &[0.0, 0.0, 0.0, 0.0]),
+                SlodResult::InvalidArgument
+            );
+            assert_eq!(
+                slod_character_set_rotation(w, ch, &[0.0, FRAC_1_SQRT_2, 0.0, FRAC_1_SQRT_2]),
+                SlodResult::Ok
+            );
+            assert_eq!(
+                slod_character_set_scale(w, ch, 0.0),
+                SlodResult::InvalidArgument
+            );
+            assert_eq!(slod_character_set_scale(w, ch, 1.5), SlodResult::Ok);
+
+            // Stage statistics after a timed advance.
+            assert_eq!(slod_crowd_set_stage_timing(w, crowd, true), SlodResult::Ok);
+            assert_eq!(
+                slod_crowd_advance(w, crowd, 0.016, null_mut()),
+                SlodResult::Ok
+            );
+            let mut st = SlodCrowdStageStats::default();
+            assert_eq!(slod_crowd_stage_stats(w, crowd, &mut st), SlodResult::Ok);
+            assert_eq!((st.characters, st.characters_changed), (1, 1));
+            assert!(st.sample_ns > 0);
 
             // Play once, pose changed, pose error (0 at full detail).
             assert_eq!(slod_character_set_play_once(w, ch, true), SlodResult::Ok);

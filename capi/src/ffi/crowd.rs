@@ -332,6 +332,9 @@ pub unsafe extern "C" fn slod_crowd_set_lod(
 /// `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_INVALID_ARGUMENT` for `dt` not finite or outside
 /// [0, 3600] (nothing advanced); `SLOD_RESULT_NULL_ARGUMENT` for a NULL `world`.
 ///
+/// Characters are split over the world's worker threads (unless it has one; not in budget
+/// mode); the poses are the same on any number of threads.
+///
 /// # Safety
 /// `world` NULL or a live world; `out_stats` NULL or valid for a write.
 #[unsafe(no_mangle)]
@@ -345,9 +348,12 @@ pub unsafe extern "C" fn slod_crowd_advance(
         // SAFETY: caller contract: NULL or a live world used by this thread only.
         let world = unsafe { arg_mut(world, "world") }?;
         let view = world.view;
-        let c = crowd_mut(world, crowd)?;
+        let parallel = world.parallel_allowed();
+        let pool = world.pool.as_ref();
+        let c = world.crowds.get_mut(RawId::from(crowd), "crowd")?;
         in_range(dt, 0.0, 3600.0, "dt")?;
-        let s = c.advance(dt, &view).map_err(crowd_error)?;
+        c.set_parallel(parallel);
+        let s = SlodWorld::run(pool, || c.advance(dt, &view)).map_err(crowd_error)?;
         if out_stats.is_null() {
             return Ok(());
         }
@@ -605,5 +611,73 @@ pub unsafe extern "C" fn slod_crowd_priority_source(
         };
         // SAFETY: caller contract: NULL or valid for a write.
         unsafe { write_out(out_source, source, "out_source") }
+    })
+}
+
+/// Per-stage cost of a crowd's last `slod_crowd_advance`, with stage timing on
+/// (`slod_crowd_set_stage_timing`); zeros otherwise.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SlodCrowdStageStats {
+    /// Nanoseconds spent sampling (key search, interpolation, local matrices).
+    pub sample_ns: u64,
+    /// Nanoseconds spent concatenating local to model matrices.
+    pub concat_ns: u64,
+    /// Characters whose pose changed (the others' palettes and skinned vertices can be reused).
+    pub characters_changed: u32,
+    /// Characters advanced.
+    pub characters: u32,
+}
+
+/// Turns per-stage timing of a crowd's `slod_crowd_advance` on or off (off by default: two
+/// clock reads per character per frame). Poses are the same either way.
+///
+/// Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`.
+///
+/// # Safety
+/// `world` NULL or a live world.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_crowd_set_stage_timing(
+    world: *mut SlodWorld,
+    crowd: SlodCrowdId,
+    on: bool,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        crowd_mut(world, crowd)?.set_stage_timing(on);
+        Ok(())
+    })
+}
+
+/// Writes the per-stage statistics of a crowd's last `slod_crowd_advance` to `*out_stats`.
+///
+/// Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+///
+/// # Safety
+/// `world` NULL or a live world; `out_stats` NULL or valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_crowd_stage_stats(
+    world: *const SlodWorld,
+    crowd: SlodCrowdId,
+    out_stats: *mut SlodCrowdStageStats,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world.
+        let world = unsafe { arg(world, "world") }?;
+        let c = world.crowds.get(RawId::from(crowd), "crowd")?;
+        let s = c.last_stats();
+        let changed = c
+            .character_ids()
+            .filter(|&id| c.pose_changed(id).unwrap_or(false))
+            .count();
+        let stats = SlodCrowdStageStats {
+            sample_ns: s.sample_ns,
+            concat_ns: s.concat_ns,
+            characters_changed: changed as u32,
+            characters: s.characters,
+        };
+        // SAFETY: caller contract: NULL or valid for a write.
+        unsafe { write_out(out_stats, stats, "out_stats") }
     })
 }
