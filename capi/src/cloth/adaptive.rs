@@ -234,7 +234,7 @@ impl AdaptiveCloth {
         let due = self
             .feedback
             .as_ref()
-            .is_some_and(|f| self.stats.steps % f.settings.interval as u64 == 0);
+            .is_some_and(|f| self.stats.steps.is_multiple_of(f.settings.interval as u64));
         if due {
             // The controller sees the mean step of the last interval, evaluation included:
             // per-step times swing with the evaluation every `interval` steps, which would
