@@ -36,10 +36,10 @@ fn rig() -> String {
 fn field<T: std::str::FromStr>(line: &str, key: &str) -> T {
     let mut words = line.split_whitespace();
     while let Some(w) = words.next() {
-        if w == key {
-            if let Some(v) = words.next().and_then(|v| v.parse().ok()) {
-                return v;
-            }
+        if w == key
+            && let Some(v) = words.next().and_then(|v| v.parse().ok())
+        {
+            return v;
         }
     }
     panic!("no `{key}` value in {line:?}")

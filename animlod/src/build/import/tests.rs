@@ -190,7 +190,7 @@ impl Builder {
         ct: u32,
         normalized: bool,
     ) -> usize {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         self.views
@@ -625,7 +625,7 @@ fn misaligned_accessors_and_overflowing_rotations_are_refused() {
     let doc: Value = serde_json::from_slice(json).unwrap();
     let rebuild = |doc: &Value, bin: &[u8]| {
         let mut j = serde_json::to_vec(doc).unwrap();
-        while j.len() % 4 != 0 {
+        while !j.len().is_multiple_of(4) {
             j.push(b' ');
         }
         let mut out = Vec::new();
@@ -748,7 +748,7 @@ fn structurally_corrupted_real_file() {
     let doc: Value = serde_json::from_slice(json).unwrap();
     let rebuild = |doc: &Value| {
         let mut j = serde_json::to_vec(doc).unwrap();
-        while j.len() % 4 != 0 {
+        while !j.len().is_multiple_of(4) {
             j.push(b' ');
         }
         let bin = bin.unwrap();
