@@ -230,9 +230,7 @@ void crowd_checks(slod::World &world, const char *rig_path) {
            SLOD_RESULT_OK);
     EXPECT(nv > 0);
     std::vector<float> pos(3 * nv), nrm(3 * nv);
-    EXPECT(slod_character_skinned_vertices(world.get(), chars[0], 0,
-                                           reinterpret_cast<float (*)[3]>(pos.data()),
-                                           reinterpret_cast<float (*)[3]>(nrm.data()), nv,
+    EXPECT(slod_character_skinned_vertices(world.get(), chars[0], 0, pos.data(), nrm.data(), nv,
                                            &nv) == SLOD_RESULT_OK);
     for (size_t i = 0; i < 3 * nv; ++i) EXPECT(std::isfinite(pos[i]) && std::isfinite(nrm[i]));
     SlodPoseError err{};
