@@ -1,4 +1,4 @@
-//! What contact costs: one step of a 65² TreeCut cloth (default settings: 16 substeps) resting
+//! What contact costs: one step of a 65² TreeCut cloth (default settings: 32 substeps) resting
 //! in full contact, against the same cloth without colliders.
 //!
 //! * `free`: no colliders (hanging from two corners).

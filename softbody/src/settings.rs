@@ -118,18 +118,17 @@ pub struct SolverSettings {
 /// The defaults are the values the swinging-net experiment measured good, chosen so that a
 /// comparison between resolutions measures level of detail and not solver artefacts:
 ///
-/// * 16 substeps of one iteration at 60 Hz: small steps converge better than many iterations
-///   at the same cost (Macklin et al., "Small Steps in Physics Simulation", 2019).
-///   Not converged enough for level of detail, measured: Gauss–Seidel XPBD with too few
-///   sweeps is softer the more nodes it has (a coarse cut converges further per sweep), so a
-///   coarse cut and the full cloth become different materials. On the swinging net (2 m, 1 kg,
-///   240 steps) the centre sagged 0.467 / 0.526 / 0.678 m on 33² / 65² / 129² nets at 16
+/// * 32 substeps of one iteration at 60 Hz: small steps converge better than many iterations
+///   at the same cost (Macklin et al., "Small Steps in Physics Simulation", 2019), and level
+///   of detail needs a *converged* solver: Gauss–Seidel XPBD with too few sweeps is softer the
+///   more nodes it has (a coarse cut converges further per sweep), so a coarse cut and the
+///   full cloth become different materials. Measured on the swinging net (2 m, 1 kg, 240
+///   steps): the centre sagged 0.467 / 0.526 / 0.678 m on 33² / 65² / 129² nets at 16
 ///   substeps and 0.454 / 0.479 / 0.513 m at 64; the feedback loop at 30 % of the nodes
-///   measured 3.6 px on-screen RMS against its reference at 16 substeps and 1.8 px at 32 (the
-///   perception `net` scene; off-screen scene 8.3 and 4.1 px). 32 is not the default yet
-///   because contact then creeps: a cloth draped on a sphere keeps moving 0.06–0.12 mm per step
-///   (test `cloth_drapes_on_a_sphere_without_sinking_or_jitter`, bound 0.1 mm), against 0.03 mm
-///   at 16.
+///   measured 3.6 px on-screen RMS against its reference at 16 substeps, 1.8 px at 32 and
+///   2.0 px at 48 (the perception `net` scene; the off-screen scene 8.3, 4.1 and 4.3 px). 32 is
+///   where that error stopped falling; a step costs twice what it did at 16, the reference's
+///   too.
 /// * Damping 2/s: air drag on a light cloth. A linearised quadratic drag `½ρ c_d A v / m` with
 ///   `ρ` = 1.2 kg/m³, `c_d` ≈ 1, 4 m² and 1 kg gives 2.4/s at 1 m/s. Without drag a swing
 ///   goes on for many seconds and every comparison measures mostly phase drift between
@@ -138,7 +137,7 @@ impl Default for SolverSettings {
     fn default() -> Self {
         Self {
             dt: 1.0 / 60.0,
-            substeps: 16,
+            substeps: 32,
             iterations: 1,
             gravity: Vec3::new(0.0, -9.81, 0.0),
             damping: 2.0,

@@ -146,7 +146,7 @@ pub struct SlodFeedbackDesc {
 }
 
 /// The default cloth: the paper's swinging net (65×65 vertices 2 m wide, 1 kg, horizontal in
-/// the XZ plane around the origin), solver at 60 Hz with 16 substeps, starting at level 1.
+/// the XZ plane around the origin), solver at 60 Hz with 32 substeps, starting at level 1.
 ///
 /// Returns a value the host owns; change fields, then pass it to a creation function.
 #[unsafe(no_mangle)]

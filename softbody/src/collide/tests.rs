@@ -100,8 +100,23 @@ fn cloth_drapes_on_a_sphere_without_sinking_or_jitter() {
             .map(|p| p.truncate().length())
             .fold(f32::INFINITY, f32::min);
         closest = closest.min(near);
+        // Jitter of the contact: the particles resting on the sphere (within 1 mm of its
+        // surface plus thickness). The free corners hanging below it still swing slowly
+        // after 700 steps; that is the cloth's motion, not the contact's.
         if step >= 700 {
-            jitter = jitter.max(max_move(&before, body.positions()));
+            let touching: Vec<usize> = (0..before.len())
+                .filter(|&i| before[i].truncate().length() < radius + thickness + 1e-3)
+                .collect();
+            assert!(touching.len() > 20, "the cloth rests on the sphere");
+            let moved = touching
+                .iter()
+                .map(|&i| {
+                    before[i]
+                        .truncate()
+                        .distance(body.positions()[i].truncate())
+                })
+                .fold(0.0, f32::max);
+            jitter = jitter.max(moved);
         }
     }
     assert!(

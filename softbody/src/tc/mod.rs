@@ -64,10 +64,10 @@ pub struct TreeCutSettings {
 
 /// The values the swinging-net experiment measured good:
 ///
-/// * the solver's defaults ([`SolverSettings`]: 16 substeps of one iteration at 60 Hz,
+/// * the solver's defaults ([`SolverSettings`]: 32 substeps of one iteration at 60 Hz,
 ///   damping 2/s);
 /// * a membrane stretch compliance of 0.015 m/N, about three times the `w·dt²` of a finest
-///   node of a 1 kg, 65×65 net at 16 substeps: the finest cloth's stretch then comes from the
+///   node of a 1 kg, 65×65 net at 16 substeps (twelve times at 32): the finest cloth's stretch then comes from the
 ///   material rather than from unfinished iterations, so coarse and fine cuts are the same
 ///   material (see the settings module's docs). A stiffer material makes the full-resolution
 ///   cloth iteration-limited: it creeps instead of swinging, and a coarse cut would be judged
