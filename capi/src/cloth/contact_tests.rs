@@ -123,3 +123,41 @@ fn bone_ties_refuse_bad_input_and_change_nothing() {
     assert!(at.distance(torso_at) < 1e-5, "{at} vs {torso_at}");
     assert!(cloth.body().vertex_anchor(0).is_some());
 }
+
+/// A worn cloth follows the whole character, not only its position: turned a quarter about
+/// +Y, scaled 1.5× and moved, the pin's anchor and the collider land where the character's world
+/// transform puts the bone-frame point, and the collider turns with the character.
+#[test]
+fn bone_ties_follow_the_characters_rotation_and_scale() {
+    let rig = gdbot();
+    let mut crowd = Crowd::new(rig.clone());
+    let walk = rig.clip_by_name("walk").unwrap();
+    let who = crowd
+        .add_character(Vec3::new(3.0, 0.0, -2.0), walk)
+        .unwrap();
+    let turn = glam::Quat::from_rotation_y(std::f32::consts::FRAC_PI_2);
+    crowd.set_rotation(who, turn).unwrap();
+    crowd.set_scale(who, 1.5).unwrap();
+    crowd.advance(0.1, &View::default()).unwrap();
+    let spec = GridSpec::horizontal(9, 9, 0.05, 0.1);
+    let mut cloth = AdaptiveCloth::grid(&spec, 0, TreeCutSettings::default()).unwrap();
+    let id = cloth.add_collider(ColliderDesc::default()).unwrap();
+    let torso = rig.skeleton().find("torso").unwrap();
+    let mut ties = BoneAttachments::new();
+    let offset = Vec3::new(0.1, 0.2, 0.0);
+    ties.pin_vertex(&cloth, rig.bone_count(), 0, torso, offset)
+        .unwrap();
+    ties.attach_collider(&cloth, rig.bone_count(), id, torso, Transform::IDENTITY)
+        .unwrap();
+    ties.apply(&mut cloth, &crowd, who).unwrap();
+    let model = crowd.model_matrices(who).unwrap()[torso.index()];
+    let world = crowd.world_transform(who).unwrap();
+    let expected = world.transform_point3(model.transform_point3(offset));
+    let anchor = cloth.body().vertex_anchor(0).unwrap();
+    assert!(anchor.distance(expected) < 1e-4, "{anchor} vs {expected}");
+    let placed = cloth.colliders().get(id).unwrap().transform;
+    let torso_world = world.transform_point3(model.w_axis.truncate());
+    assert!(placed.position.distance(torso_world) < 1e-4);
+    let (_, bone_turn, _) = model.to_scale_rotation_translation();
+    assert!(placed.rotation.angle_between(turn * bone_turn) < 1e-3);
+}

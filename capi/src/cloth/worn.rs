@@ -3,14 +3,15 @@
 //! halves of slod, cloth and crowd, meet).
 //!
 //! Each frame the host advances the crowd, then [`BoneAttachments::apply`] reads the
-//! character's bone model matrices (skeleton model space, plus the character's position) and
+//! character's bone model matrices (skeleton model space, placed by the character's world
+//! transform: position, rotation and scale, [`Crowd::world_transform`]) and
 //! moves every pinned vertex's anchor and every attached collider there; the cloth's next step
 //! carries them along over its substeps (kinematic anchors and kinematic colliders, whose
 //! motion friction sees). Offsets are in the bone's frame, so they follow its rotation and the
 //! rig's scale; collider dimensions stay in world metres.
 
 use animlod::{BoneId, CharacterId, Crowd};
-use glam::{Mat4, Vec3};
+use glam::{Affine3A, Mat4, Quat, Vec3};
 use softbody::{ColliderId, Transform};
 
 use super::adaptive::AdaptiveCloth;
@@ -47,12 +48,40 @@ fn check_bone(bone: BoneId, bones: usize) -> Result<(), ClothError> {
     }
 }
 
-/// World placement of a point and a frame given in a bone's frame.
-fn bone_world(character: Vec3, model: &Mat4, local: &Transform) -> Transform {
-    let (_, rotation, _) = model.to_scale_rotation_translation();
-    Transform {
-        position: character + model.transform_point3(local.position),
-        rotation: (rotation * local.rotation).normalize(),
+/// A character's pose as attachments need it: its bones' model matrices and its world
+/// transform (model space → world).
+struct Pose<'a> {
+    models: &'a [Mat4],
+    world: Affine3A,
+    /// The world transform's rotation.
+    turn: Quat,
+}
+
+impl<'a> Pose<'a> {
+    fn of(crowd: &'a Crowd, character: CharacterId) -> Result<Pose<'a>, ClothError> {
+        let models = crowd.model_matrices(character)?;
+        let world = crowd.world_transform(character)?;
+        let (_, turn, _) = world.to_scale_rotation_translation();
+        Ok(Pose {
+            models,
+            world,
+            turn,
+        })
+    }
+
+    /// World position of a point fixed in `bone`'s frame.
+    fn point(&self, bone: BoneId, offset: Vec3) -> Vec3 {
+        self.world
+            .transform_point3(self.models[bone.index()].transform_point3(offset))
+    }
+
+    /// World placement of a frame fixed in `bone`'s frame.
+    fn frame(&self, bone: BoneId, local: &Transform) -> Transform {
+        let (_, rotation, _) = self.models[bone.index()].to_scale_rotation_translation();
+        Transform {
+            position: self.point(bone, local.position),
+            rotation: (self.turn * rotation * local.rotation).normalize(),
+        }
     }
 }
 
@@ -157,25 +186,23 @@ impl BoneAttachments {
         crowd: &Crowd,
         character: CharacterId,
     ) -> Result<(), ClothError> {
-        let models = crowd.model_matrices(character)?;
-        let at = crowd.position(character)?;
+        let pose = Pose::of(crowd, character)?;
         for p in &self.pins {
-            check_bone(p.bone, models.len())?;
+            check_bone(p.bone, pose.models.len())?;
         }
         for c in &self.colliders {
-            check_bone(c.bone, models.len())?;
+            check_bone(c.bone, pose.models.len())?;
             if cloth.colliders().get(c.collider).is_none() {
                 return Err(ClothError::Collider(softbody::SoftBodyError::StaleCollider));
             }
         }
         for p in &self.pins {
-            let m = &models[p.bone.index()];
-            let anchor = at + m.transform_point3(p.offset);
-            cloth.body_mut().pin_vertex(p.vertex, anchor)?;
+            cloth
+                .body_mut()
+                .pin_vertex(p.vertex, pose.point(p.bone, p.offset))?;
         }
         for c in &self.colliders {
-            let t = bone_world(at, &models[c.bone.index()], &c.local);
-            cloth.set_collider_transform(c.collider, t)?;
+            cloth.set_collider_transform(c.collider, pose.frame(c.bone, &c.local))?;
         }
         Ok(())
     }
@@ -188,14 +215,15 @@ impl BoneAttachments {
         crowd: &Crowd,
         character: CharacterId,
     ) -> Result<(), ClothError> {
-        let models = crowd.model_matrices(character)?;
-        let at = crowd.position(character)?;
+        let pose = Pose::of(crowd, character)?;
         for c in &self.colliders {
-            check_bone(c.bone, models.len())?;
+            check_bone(c.bone, pose.models.len())?;
         }
         for c in &self.colliders {
-            let t = bone_world(at, &models[c.bone.index()], &c.local);
-            cloth.body_mut().colliders_mut().teleport(c.collider, t)?;
+            cloth
+                .body_mut()
+                .colliders_mut()
+                .teleport(c.collider, pose.frame(c.bone, &c.local))?;
         }
         Ok(())
     }
