@@ -194,7 +194,6 @@ impl Feedback {
         if error_bound.is_some() || deviation {
             let positions = std::mem::take(&mut self.positions);
             let velocities = std::mem::take(&mut self.velocities);
-            let dt = body.settings().solver.dt;
             let blend = body.settings().blend_steps;
             let frame = Frame {
                 positions: &positions,
@@ -205,11 +204,7 @@ impl Feedback {
                 outside_weight: self.settings.params.outside_view_weight,
             };
             let period = self.settings.interval as f32 * dt;
-            let decay = if self.settings.memory_seconds > 0.0 {
-                (-period / self.settings.memory_seconds).exp()
-            } else {
-                0.0
-            };
+            let decay = self.settings.memory_decay(dt);
             // Cold start: until the loop has watched the cloth for one memory period it has
             // no history, and a cloth at rest (about to be released, or to be hit by wind)
             // reads as one that can be merged; merges then wait.
@@ -229,11 +224,7 @@ impl Feedback {
         }
         let cut = body.cut();
         let h = body.hierarchy();
-        let decay = if self.settings.memory_seconds > 0.0 {
-            (-(self.settings.interval as f32 * dt) / self.settings.memory_seconds).exp()
-        } else {
-            0.0
-        };
+        let decay = self.settings.memory_decay(dt);
         let previous = self.memory.begin();
         for (i, &node) in nodes.iter().enumerate() {
             node_normals[node.index()] = self.normals[i];
@@ -337,6 +328,12 @@ impl Feedback {
                 self.priorities[parent.index()] = px;
                 continue;
             }
+            if !merges {
+                // The evaluator merges only to make room, and there is room; a key above every
+                // refine candidate keeps swaps from merging too.
+                self.priorities[parent.index()] = f32::MAX;
+                continue;
+            }
             // What the parent's own estimate would be: under the smooth-curvature model of the
             // `deviation` module a node's error grows with its radius squared, so the children's
             // largest estimate scaled to the parent's radius is the parent's, and refining and
@@ -350,12 +347,6 @@ impl Feedback {
                     (rc > 0.0).then(|| self.deviation.particle_px[p.index()] * (rp / rc).powi(2))
                 })
                 .fold(0.0, f32::max);
-            if !merges {
-                // The evaluator merges only to make room, and there is room; a key above every
-                // refine candidate keeps swaps from merging too.
-                self.priorities[parent.index()] = f32::MAX;
-                continue;
-            }
             self.priorities[parent.index()] = px;
             if px < settings::ERROR_BOUND_MERGE * bound && cut.can_coarse(h, parent).is_ok() {
                 budget -= h.child_count(parent) as i64 - 1;

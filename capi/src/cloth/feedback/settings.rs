@@ -146,6 +146,16 @@ impl FeedbackSettings {
         }
     }
 
+    /// How much a remembered value keeps from one evaluation to the next (`exp(−interval·dt /
+    /// memory_seconds)`; 0 without memory), for a solver step of `dt` seconds.
+    pub(crate) fn memory_decay(&self, dt: f32) -> f32 {
+        if self.memory_seconds > 0.0 {
+            (-(self.interval as f32 * dt) / self.memory_seconds).exp()
+        } else {
+            0.0
+        }
+    }
+
     /// Checks every field; the error names the bad one.
     pub fn validate(&self) -> Result<(), ClothError> {
         let bad = |field, reason| Err(ClothError::Feedback { field, reason });
