@@ -14,10 +14,9 @@ use std::time::Instant;
 use serde::Serialize;
 use slod_experiments::net::NetConfig;
 use slod_experiments::table::{Table, num};
-use softbody::{TreeCutSettings, TreeCutSoftBody};
-use treecut::{Cut, Hierarchy, NodeId};
+use treecut::NodeId;
 
-use super::ops::{OPERATIONS, median, time_cycles};
+use super::ops::{OPERATIONS, median, time_cycles, unblended_body};
 use super::scaling::fit;
 use crate::error::DemoError;
 use crate::progress::Progress;
@@ -78,16 +77,7 @@ pub(crate) fn measure(
     let mut points = Vec::new();
     for (k, &size) in sizes.iter().enumerate() {
         bar.set_message(format!("TreeCut operations on {size}x{size}"));
-        let mut config = config.clone();
-        config.size = size;
-        let spec = config.grid();
-        let h = Hierarchy::grid(&spec)?;
-        let settings = TreeCutSettings {
-            blend_steps: 0,
-            ..config.body
-        };
-        let cut = Cut::finest(&h);
-        let mut body = TreeCutSoftBody::new(h, cut, settings)?;
+        let (mut body, _) = unblended_body(config, size)?;
         let mut order: Vec<NodeId> = body.hierarchy().nodes_at_level(1).collect();
         slod_experiments::rng::Rng::new(0xF164).shuffle(&mut order);
         let (mut times, counts) = time_cycles(&mut body, &order, cycles, &mut |_| {})?;

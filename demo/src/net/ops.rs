@@ -13,7 +13,7 @@ use std::time::Instant;
 use serde::Serialize;
 use slod_experiments::net::NetConfig;
 use softbody::{TreeCutSettings, TreeCutSoftBody};
-use treecut::{Cut, Hierarchy, NodeId};
+use treecut::{Cut, GridSpec, Hierarchy, NodeId};
 
 use crate::error::DemoError;
 use crate::paper::{PaperOp, TABLE1};
@@ -105,14 +105,13 @@ pub(crate) fn median(t: &mut [f64]) -> f64 {
 /// Vertices per side of the measured net: 70² = 4,900 nodes, the paper's N.
 pub(crate) const PAPER_SIZE: u32 = 70;
 
-/// Times `cycles` cycles on a `size`×`size` net with the experiment's material and solver.
-pub(crate) fn measure(
+/// A `size`×`size` net at its finest cut with the experiment's material and solver and no
+/// blending (each begun operation can end at once), and its grid: what the operation timings
+/// run on.
+pub(crate) fn unblended_body(
     config: &NetConfig,
     size: u32,
-    cycles: usize,
-    progress: Progress,
-) -> Result<Table1, DemoError> {
-    let start = Instant::now();
+) -> Result<(TreeCutSoftBody, GridSpec), DemoError> {
     let mut config = config.clone();
     config.size = size;
     let spec = config.grid();
@@ -122,7 +121,18 @@ pub(crate) fn measure(
         ..config.body
     };
     let cut = Cut::finest(&h);
-    let mut body = TreeCutSoftBody::new(h, cut, settings)?;
+    Ok((TreeCutSoftBody::new(h, cut, settings)?, spec))
+}
+
+/// Times `cycles` cycles on a `size`×`size` net with the experiment's material and solver.
+pub(crate) fn measure(
+    config: &NetConfig,
+    size: u32,
+    cycles: usize,
+    progress: Progress,
+) -> Result<Table1, DemoError> {
+    let start = Instant::now();
+    let (mut body, spec) = unblended_body(config, size)?;
     for (i, j) in [(0, 0), (size - 1, 0), (0, size - 1), (size - 1, size - 1)] {
         body.pin_vertex(spec.vertex(i, j), spec.position(i, j))?;
     }
