@@ -616,6 +616,25 @@ fn byte_flipped_rigs_that_load_are_finite_everywhere() {
     assert!(loaded > 0, "some flips must still load");
 }
 
+/// A binary glTF (GLB) of `doc` (JSON chunk, padded to 4 bytes with spaces) and `bin`.
+fn glb(doc: &Value, bin: &[u8]) -> Vec<u8> {
+    let mut j = serde_json::to_vec(doc).unwrap();
+    while !j.len().is_multiple_of(4) {
+        j.push(b' ');
+    }
+    let mut out = Vec::new();
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&((12 + 8 + j.len() + 8 + bin.len()) as u32).to_le_bytes());
+    out.extend_from_slice(&(j.len() as u32).to_le_bytes());
+    out.extend_from_slice(&0x4E4F534Au32.to_le_bytes());
+    out.extend_from_slice(&j);
+    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    out.extend_from_slice(&0x004E4942u32.to_le_bytes());
+    out.extend_from_slice(bin);
+    out
+}
+
 /// An accessor whose byte offset is not a multiple of its component size, and a rotation key
 /// whose squared length overflows, are refused with an error naming the accessor.
 #[test]
@@ -623,23 +642,7 @@ fn misaligned_accessors_and_overflowing_rotations_are_refused() {
     let bytes = read("Godot_PlatformerRobot.glb");
     let (json, bin) = super::container::split(&bytes).unwrap();
     let doc: Value = serde_json::from_slice(json).unwrap();
-    let rebuild = |doc: &Value, bin: &[u8]| {
-        let mut j = serde_json::to_vec(doc).unwrap();
-        while !j.len().is_multiple_of(4) {
-            j.push(b' ');
-        }
-        let mut out = Vec::new();
-        out.extend_from_slice(b"glTF");
-        out.extend_from_slice(&2u32.to_le_bytes());
-        out.extend_from_slice(&((12 + 8 + j.len() + 8 + bin.len()) as u32).to_le_bytes());
-        out.extend_from_slice(&(j.len() as u32).to_le_bytes());
-        out.extend_from_slice(&0x4E4F534Au32.to_le_bytes());
-        out.extend_from_slice(&j);
-        out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-        out.extend_from_slice(&0x004E4942u32.to_le_bytes());
-        out.extend_from_slice(bin);
-        out
-    };
+    let rebuild = glb;
     let bin = bin.unwrap();
     assert!(crate::build::import_slice(&rebuild(&doc, bin), None).is_ok());
     // The rotation output accessor of the first rotation channel.
@@ -746,24 +749,7 @@ fn structurally_corrupted_real_file() {
     let bytes = read("Godot_PlatformerRobot.glb");
     let (json, bin) = super::container::split(&bytes).unwrap();
     let doc: Value = serde_json::from_slice(json).unwrap();
-    let rebuild = |doc: &Value| {
-        let mut j = serde_json::to_vec(doc).unwrap();
-        while !j.len().is_multiple_of(4) {
-            j.push(b' ');
-        }
-        let bin = bin.unwrap();
-        let mut out = Vec::new();
-        out.extend_from_slice(b"glTF");
-        out.extend_from_slice(&2u32.to_le_bytes());
-        out.extend_from_slice(&((12 + 8 + j.len() + 8 + bin.len()) as u32).to_le_bytes());
-        out.extend_from_slice(&(j.len() as u32).to_le_bytes());
-        out.extend_from_slice(&0x4E4F534Au32.to_le_bytes());
-        out.extend_from_slice(&j);
-        out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-        out.extend_from_slice(&0x004E4942u32.to_le_bytes());
-        out.extend_from_slice(bin);
-        out
-    };
+    let rebuild = |doc: &Value| glb(doc, bin.unwrap());
     assert!(crate::build::import_slice(&rebuild(&doc), None).is_ok());
     let rot_sampler = doc["animations"][0]["channels"]
         .as_array()
