@@ -130,23 +130,29 @@ impl Framing {
 /// Vertex normals of a `size`×`size` grid surface (area-weighted face normals).
 pub(super) fn vertex_normals(v: &[Vec3], size: usize) -> Vec<Vec3> {
     let mut n = vec![Vec3::ZERO; v.len()];
-    for j in 0..size - 1 {
-        for i in 0..size - 1 {
+    for [x, y, z] in grid_triangles(size) {
+        let f = (v[y] - v[x]).cross(v[z] - v[x]);
+        n[x] += f;
+        n[y] += f;
+        n[z] += f;
+    }
+    n.iter().map(|x| x.normalize_or(Vec3::Y)).collect()
+}
+
+/// The triangles of a `size`×`size` grid surface (vertex `j * size + i`), two per cell,
+/// consistently wound: the one triangulation every picture draws.
+pub(super) fn grid_triangles(size: usize) -> impl Iterator<Item = [usize; 3]> {
+    (0..size.saturating_sub(1)).flat_map(move |j| {
+        (0..size - 1).flat_map(move |i| {
             let [a, b, c, d] = [
                 j * size + i,
                 j * size + i + 1,
                 (j + 1) * size + i,
                 (j + 1) * size + i + 1,
             ];
-            for [x, y, z] in [[a, b, d], [a, d, c]] {
-                let f = (v[y] - v[x]).cross(v[z] - v[x]);
-                n[x] += f;
-                n[y] += f;
-                n[z] += f;
-            }
-        }
-    }
-    n.iter().map(|x| x.normalize_or(Vec3::Y)).collect()
+            [[a, b, d], [a, d, c]]
+        })
+    })
 }
 
 /// A shaded cloth surface, optionally with a wire every `wire_stride` grid lines and the
@@ -168,18 +174,8 @@ fn surface_panel(
     let light = (view.up * 0.8 - view.right * 0.35 - view.forward * 0.5).normalize();
     let shade = |k: usize| CLOTH * (0.28 + 0.72 * normals[k].dot(light).abs());
     let screen: Vec<ScreenPoint> = vertices.iter().map(|&p| view.project(p)).collect();
-    for j in 0..size - 1 {
-        for i in 0..size - 1 {
-            let [a, b, c, d] = [
-                j * size + i,
-                j * size + i + 1,
-                (j + 1) * size + i,
-                (j + 1) * size + i + 1,
-            ];
-            for t in [[a, b, d], [a, d, c]] {
-                r.triangle(t.map(|k| screen[k]), t.map(shade));
-            }
-        }
+    for t in grid_triangles(size) {
+        r.triangle(t.map(|k| screen[k]), t.map(shade));
     }
     if let Some(stride) = wire_stride {
         let stride = stride.max(1);

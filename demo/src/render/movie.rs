@@ -71,19 +71,9 @@ fn panel(
         let to_eye = (view.position() - vertices[k]).normalize_or(Vec3::Z);
         colour(k) * (0.35 + 0.65 * normals[k].dot(to_eye).abs())
     };
-    for j in 0..side - 1 {
-        for i in 0..side - 1 {
-            let [a, b, c, d] = [
-                j * side + i,
-                j * side + i + 1,
-                (j + 1) * side + i,
-                (j + 1) * side + i + 1,
-            ];
-            for t in [[a, b, d], [a, d, c]] {
-                if t.iter().all(|&k| screen[k].inv_z > 0.0) {
-                    r.triangle(t.map(|k| screen[k]), t.map(shade));
-                }
-            }
+    for t in super::grid_triangles(side) {
+        if t.iter().all(|&k| screen[k].inv_z > 0.0) {
+            r.triangle(t.map(|k| screen[k]), t.map(shade));
         }
     }
     r.downsample(SS as usize)
