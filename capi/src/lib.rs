@@ -7,6 +7,7 @@
 
 pub mod cloth;
 pub mod ffi;
+pub mod world;
 
 pub use animlod;
 pub use salience;

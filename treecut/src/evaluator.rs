@@ -122,6 +122,8 @@ const REMOVED: u8 = 3;
 #[derive(Clone, Debug)]
 pub struct Evaluator {
     settings: EvaluatorSettings,
+    /// Nodes at or below this priority are never refined (see [`Evaluator::set_refine_floor`]).
+    refine_floor: f32,
     /// Max-queue of split candidates; ties go to the lower id.
     split: BinaryHeap<(Priority, Reverse<NodeId>)>,
     /// Min-queue of merge candidates; ties go to the lower id.
@@ -173,6 +175,7 @@ impl Evaluator {
     pub fn new(settings: EvaluatorSettings) -> Evaluator {
         Evaluator {
             settings,
+            refine_floor: f32::NEG_INFINITY,
             split: BinaryHeap::new(),
             merge: BinaryHeap::new(),
             overlay: Vec::new(),
@@ -196,6 +199,15 @@ impl Evaluator {
     /// Replaces the settings (for example when a controller moves the hysteresis).
     pub fn set_settings(&mut self, settings: EvaluatorSettings) {
         self.settings = settings;
+    }
+
+    /// Refines only nodes whose priority is above `floor` (−∞, the default: any node, as the
+    /// budget allows). For priorities with an absolute meaning — estimated on-screen error in
+    /// pixels under an error bound — a node whose error is already acceptable must not be
+    /// refined just because the budget has room left (room left by candidates that a lock
+    /// kept from refining, for one).
+    pub fn set_refine_floor(&mut self, floor: f32) {
+        self.refine_floor = floor;
     }
 
     /// Proposes the batch of operations that best spends `budget` given a priority per node, for
@@ -290,7 +302,10 @@ impl Evaluator {
                 None => 1.0,
                 Some(c) => c[n.index()] as f64,
             };
-            if !h.is_leaf(n) && !cut.is_locked(n) {
+            if !h.is_leaf(n)
+                && !cut.is_locked(n)
+                && inputs.priorities[n.index()] > self.refine_floor
+            {
                 split.push((Priority(inputs.priorities[n.index()]), Reverse(n)));
                 min_delta = min_delta.min(inputs.refine_delta(n));
             }

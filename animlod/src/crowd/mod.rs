@@ -480,6 +480,23 @@ impl Crowd {
         Ok(())
     }
 
+    /// Moves the bound of [`LodMode::ErrorBound`] to `max_error_px` in place, as a world-wide
+    /// frame budget does every few frames. Unlike [`Crowd::set_lod`] with a new bound, nothing
+    /// is re-evaluated: the drift each held bone has built up is measured in pixels already, so
+    /// under a lower bound the bones past it interpolate on the next frame, and under a higher
+    /// one they hold longer. A crowd in another mode switches to `ErrorBound` (through
+    /// `set_lod`). Refused, with nothing changed, unless the bound is finite and positive.
+    pub fn set_error_bound_px(&mut self, max_error_px: f32) -> Result<(), CrowdError> {
+        let lod = LodMode::ErrorBound { max_error_px };
+        lod.validate()?;
+        if matches!(self.lod, LodMode::ErrorBound { .. }) {
+            self.lod = lod;
+            Ok(())
+        } else {
+            self.set_lod(lod)
+        }
+    }
+
     /// Turns per-stage timing of [`Crowd::advance`] on or off (off by default: two clock reads
     /// per character per frame). Measurement only; poses are the same either way.
     pub fn set_stage_timing(&mut self, on: bool) {

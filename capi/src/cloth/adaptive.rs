@@ -13,7 +13,7 @@ use treecut::{GridSpec, Hierarchy, NodeId, Op};
 
 use super::contact::ContactMemory;
 use super::error::ClothError;
-use super::feedback::{Feedback, FeedbackSettings, node_radii};
+use super::feedback::{Feedback, FeedbackSettings, Recent, node_radii};
 
 /// An operation undone within this many steps counts as flicker in [`ClothStats::undone_ops`].
 pub const UNDO_WINDOW_STEPS: u64 = 30;
@@ -38,6 +38,10 @@ pub struct ClothStats {
     pub undone_ops: u64,
     /// The node budget of the last evaluation (0 before the first).
     pub node_budget: usize,
+    /// The node count the cut is heading to, at the last evaluation (0 before the first): the
+    /// node budget, or under `ClothBudget::MaxErrorPx` the count once refinement has gone down
+    /// every level the error estimate asks for (what a world budget plans with).
+    pub projected_nodes: usize,
     /// Wall time of the last step, evaluation included, in seconds.
     pub last_step_seconds: f64,
     /// Wall time of the last evaluation (salience, evaluator, beginning operations), seconds.
@@ -69,6 +73,9 @@ pub struct AdaptiveCloth {
     interval_steps: u32,
     /// Which nodes touched a collider since the last evaluation.
     contact: ContactMemory,
+    /// Offset of this cloth's evaluation steps within the feedback interval (see
+    /// [`AdaptiveCloth::set_evaluation_phase`]).
+    evaluation_phase: u32,
 }
 
 const OP_REFINE: u8 = 1;
@@ -100,6 +107,7 @@ impl AdaptiveCloth {
             interval_seconds: 0.0,
             interval_steps: 0,
             contact: ContactMemory::default(),
+            evaluation_phase: 0,
         })
     }
 
@@ -195,6 +203,43 @@ impl AdaptiveCloth {
         Ok(())
     }
 
+    /// Moves the on-screen error bound of a cloth under [`ClothBudget::MaxErrorPx`] to `px`
+    /// without restarting its loop (the salience memory, the held deviations and the evaluator
+    /// stay), as a world-wide budget does every few frames; a cloth under another budget (or no
+    /// feedback) switches to `MaxErrorPx(px)` with its other settings kept (or the defaults).
+    /// Refused, with nothing changed, unless `px` is finite and positive.
+    ///
+    /// [`ClothBudget::MaxErrorPx`]: super::ClothBudget::MaxErrorPx
+    pub fn set_error_bound_px(&mut self, px: f32) -> Result<(), ClothError> {
+        let budget = super::ClothBudget::MaxErrorPx(px);
+        match &mut self.feedback {
+            Some(f) if matches!(f.settings.budget, super::ClothBudget::MaxErrorPx(_)) => {
+                let settings = FeedbackSettings {
+                    budget,
+                    ..f.settings
+                };
+                settings.validate()?;
+                f.settings = settings;
+                f.evaluator.set_settings(settings.evaluator_settings());
+                Ok(())
+            }
+            f => {
+                let base = f
+                    .as_ref()
+                    .map_or_else(FeedbackSettings::default, |f| f.settings);
+                self.set_feedback(Some(FeedbackSettings { budget, ..base }))
+            }
+        }
+    }
+
+    /// Offsets the steps at which the feedback stage runs: with interval `k` it runs at the
+    /// steps `s` with `(s + phase) % k == 0` (0, the default: steps 0, k, 2k, ...). A world of
+    /// many cloths gives them different phases so that their evaluations, which cost several
+    /// steps' worth of time, fall on different frames instead of all on every k-th one.
+    pub fn set_evaluation_phase(&mut self, phase: u32) {
+        self.evaluation_phase = phase;
+    }
+
     /// Begins refining `node` (replacing it by its children over the blend steps). Refused, with
     /// nothing changed, if it is not on the cut, a leaf, or locked by a transition in flight.
     pub fn refine(&mut self, node: NodeId) -> Result<(), ClothError> {
@@ -225,16 +270,16 @@ impl AdaptiveCloth {
     }
 
     /// Advances the simulation by one step of the solver's `dt`; with feedback on, every
-    /// `interval` steps (counting from the first) also measures salience as seen through `view`
+    /// `interval` steps (counting from the first, shifted by the evaluation phase) also measures salience as seen through `view`
     /// (the frame's camera, viewport and light; the cloth keeps no copy) and begins the
     /// operations the evaluator chose. Operations whose blend is done end inside the step.
     pub fn step(&mut self, view: &View) -> Result<(), ClothError> {
         let start = Instant::now();
         let mut eval_seconds = None;
-        let due = self
-            .feedback
-            .as_ref()
-            .is_some_and(|f| self.stats.steps.is_multiple_of(f.settings.interval as u64));
+        let due = self.feedback.as_ref().is_some_and(|f| {
+            (self.stats.steps + self.evaluation_phase as u64)
+                .is_multiple_of(f.settings.interval as u64)
+        });
         if due {
             // The controller sees the mean step of the last interval, evaluation included:
             // per-step times swing with the evaluation every `interval` steps, which would
@@ -277,12 +322,23 @@ impl AdaptiveCloth {
                 reason: "not enabled",
             });
         };
+        let (now, last_op) = (self.stats.steps, &self.last_op);
+        let recent = |n: NodeId| {
+            let (when, kind) = last_op[n.index()];
+            match kind {
+                _ if now - when > UNDO_WINDOW_STEPS => Recent::No,
+                OP_REFINE => Recent::Refined,
+                OP_COARSE => Recent::Coarsened,
+                _ => Recent::No,
+            }
+        };
         f.measure(
             &self.body,
             &mut self.node_normals,
             &self.node_radius,
             view,
             self.body.settings().solver.dt,
+            &recent,
         )?;
         self.contact
             .raise_priorities(&self.body, &mut f.priorities, view);
@@ -311,6 +367,12 @@ impl AdaptiveCloth {
         // Over budget, merges count against `max_ops` like any operation: uncapped, a shrinking
         // time budget began hundreds of transitions per evaluation, whose blending slowed the
         // steps the controller measures, and it undershot (see `EvaluatorSettings::max_ops`).
+        f.evaluator.set_refine_floor(match f.settings.budget {
+            super::feedback::ClothBudget::MaxErrorPx(bound) => {
+                super::feedback::ERROR_BOUND_REFINE * bound
+            }
+            _ => f32::NEG_INFINITY,
+        });
         let body = &self.body;
         let ops = f.evaluator.evaluate_with_locks(
             &h,
@@ -324,6 +386,7 @@ impl AdaptiveCloth {
         self.ops.extend_from_slice(ops);
         self.stats.evaluations += 1;
         self.stats.node_budget = budget;
+        self.stats.projected_nodes = f.projected_nodes(h.vertex_count());
         let ops = std::mem::take(&mut self.ops);
         let begun = ops.iter().try_for_each(|&op| match op {
             Op::Refine(n) => self.refine(n),

@@ -23,7 +23,19 @@ use deformation::Strain;
 use deviation::{Deviation, Frame};
 use memory::Memory;
 pub(crate) use radii::node_radii;
+pub(crate) use settings::ERROR_BOUND_REFINE;
 pub use settings::{ClothBudget, FeedbackSettings, PriorityModel, compression_nodes};
+
+/// Whether a node's level changed within the undo window (see [`Feedback::measure`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Recent {
+    /// Not recently.
+    No,
+    /// Refined recently (merging it would undo that).
+    Refined,
+    /// Coarsened recently (refining it would undo that).
+    Coarsened,
+}
 
 /// The feedback loop's state: settings, evaluator, controller and reused buffers.
 ///
@@ -60,6 +72,9 @@ pub(crate) struct Feedback {
     deviation: Deviation,
     /// The node budget [`ClothBudget::MaxErrorPx`] derived at the last measurement.
     error_budget: Option<usize>,
+    /// The node count [`ClothBudget::MaxErrorPx`] projects the cut to reach under its bound
+    /// (refinement carried through every level the estimate says), at the last measurement.
+    projected_nodes: Option<usize>,
     /// Measurements made so far.
     measurements: u64,
 }
@@ -99,6 +114,7 @@ impl Feedback {
             memory: Memory::new(hierarchy_len),
             deviation: Deviation::new(hierarchy_len),
             error_budget: None,
+            projected_nodes: None,
             measurements: 0,
         }
     }
@@ -116,11 +132,29 @@ impl Feedback {
         }
     }
 
+    /// The node count the cut is heading to: under [`ClothBudget::MaxErrorPx`] the projection
+    /// of the last measurement (see `error_priorities`), otherwise the node budget.
+    pub(crate) fn projected_nodes(&self, full_nodes: usize) -> usize {
+        match self.settings.budget {
+            ClothBudget::MaxErrorPx(_) => self
+                .projected_nodes
+                .unwrap_or_else(|| self.node_budget(full_nodes)),
+            _ => self.node_budget(full_nodes),
+        }
+    }
+
     /// Computes the BSWDF of every particle and from it the priority of every active node.
     ///
     /// During a coarse in flight the cut holds the (virtual) parent while the particles are its
     /// children: the parent gets its children's largest priority, the same key the evaluator
     /// would use to merge them.
+    ///
+    /// `recent(node)` says whether `node` was refined or coarsened so recently that undoing it
+    /// would count as flicker. Under [`ClothBudget::MaxErrorPx`] such a node keeps its level
+    /// for the undo window (a minimum residency, as engines' LOD systems keep a level for a
+    /// minimum time) unless the error really asks: a just-refined node is not merged back, and
+    /// a just-coarsened one is refined again only above twice the bound (not half of it), so a
+    /// bound that moves does not undo what it just asked for.
     pub(crate) fn measure(
         &mut self,
         body: &TreeCutSoftBody,
@@ -128,6 +162,7 @@ impl Feedback {
         node_radius: &[f32],
         view: &View,
         dt: f32,
+        recent: &dyn Fn(NodeId) -> Recent,
     ) -> Result<(), ClothError> {
         let n = body.particle_count();
         let xyz = |v: &Vec4| v.truncate();
@@ -211,7 +246,10 @@ impl Feedback {
             let warm = self.measurements as f32 * period >= self.settings.memory_seconds;
             self.measurements += 1;
             if let Some(bound) = error_bound {
-                self.error_budget = Some(self.error_priorities(body, &frame, bound, decay, warm));
+                let (budget, projected) =
+                    self.error_priorities(body, &frame, bound, decay, warm, recent);
+                self.error_budget = Some(budget);
+                self.projected_nodes = Some(projected);
             } else {
                 self.deviation
                     .measure(body, &frame, (&self.offsets, &self.neighbours), decay);
@@ -284,7 +322,15 @@ impl Feedback {
     /// [`ClothBudget::MaxErrorPx`]: priorities are estimated on-screen errors in pixels (a
     /// simulated node's error if kept, a merge candidate's error if merged), and the node budget
     /// is the cut after refining every node above [`settings::ERROR_BOUND_REFINE`] of the bound
-    /// and merging every candidate under [`settings::ERROR_BOUND_MERGE`] of it.
+    /// and merging every candidate under [`settings::ERROR_BOUND_MERGE`] of it; and the node
+    /// count the cut will reach once refinement has run its course: a refined node's children
+    /// are estimated again at the next measurement and may be refined in turn, so each refine
+    /// candidate is projected down as many levels as its estimate stays above the refine
+    /// threshold when halved per level. Halving, not the smooth-curvature model's quarter:
+    /// the drift and strain parts of the estimate scale with the radius, not its square, and a
+    /// projection that falls short makes a world budget overshoot (it did, by 35%), while one
+    /// that goes too far only settles from below as refinement ends. A world budget reads the
+    /// projection; the evaluator gets the one-level budget.
     fn error_priorities(
         &mut self,
         body: &TreeCutSoftBody,
@@ -292,21 +338,38 @@ impl Feedback {
         bound: f32,
         decay: f32,
         merges: bool,
-    ) -> usize {
+        recent: &dyn Fn(NodeId) -> Recent,
+    ) -> (usize, usize) {
         let (h, cut) = (body.hierarchy(), body.cut());
         self.deviation
             .measure(body, frame, (&self.offsets, &self.neighbours), decay);
         let nodes = body.particle_nodes();
         let mut budget = cut.len() as i64;
+        let mut projected = cut.len() as i64;
+        let refine_above = settings::ERROR_BOUND_REFINE * bound;
         for (i, &node) in nodes.iter().enumerate() {
             let px = self.deviation.particle_px[i];
             if cut.is_on_cut(node) {
+                // A just-coarsened node competes at a quarter of its estimate: refined again
+                // only above twice the bound. Its first estimates after the merge run high (the
+                // merged node is still settling into its neighbours' motion), and refined again
+                // at half the bound, 1–2% of a world budget's operations were undone within 30
+                // steps.
+                let px = if px <= 2.0 * bound && recent(node) == Recent::Coarsened {
+                    px * 0.25
+                } else {
+                    px
+                };
                 self.priorities[node.index()] = px;
-                if px > settings::ERROR_BOUND_REFINE * bound
-                    && !h.is_leaf(node)
-                    && cut.can_refine(h, node).is_ok()
-                {
+                if px > refine_above && !h.is_leaf(node) && cut.can_refine(h, node).is_ok() {
                     budget += h.child_count(node) as i64 - 1;
+                    let (mut e, mut levels) = (px, 0u32);
+                    while e > refine_above && levels < h.level(node) {
+                        e *= 0.5;
+                        levels += 1;
+                    }
+                    let leaves = h.vertices(node).len() as i64;
+                    projected += 4i64.saturating_pow(levels).min(leaves) - 1;
                 }
             }
         }
@@ -328,12 +391,6 @@ impl Feedback {
                 self.priorities[parent.index()] = px;
                 continue;
             }
-            if !merges {
-                // The evaluator merges only to make room, and there is room; a key above every
-                // refine candidate keeps swaps from merging too.
-                self.priorities[parent.index()] = f32::MAX;
-                continue;
-            }
             // What the parent's own estimate would be: under the smooth-curvature model of the
             // `deviation` module a node's error grows with its radius squared, so the children's
             // largest estimate scaled to the parent's radius is the parent's, and refining and
@@ -347,12 +404,25 @@ impl Feedback {
                     (rc > 0.0).then(|| self.deviation.particle_px[p.index()] * (rp / rc).powi(2))
                 })
                 .fold(0.0, f32::max);
+            let mergeable =
+                px < settings::ERROR_BOUND_MERGE * bound && cut.can_coarse(h, parent).is_ok();
+            if !merges || recent(parent) == Recent::Refined {
+                // The evaluator merges only to make room, and there is room; a key above every
+                // refine candidate keeps swaps from merging too. A merge the residency only
+                // delays still counts in the projection: it is coming.
+                self.priorities[parent.index()] = f32::MAX;
+                if mergeable && merges {
+                    projected -= h.child_count(parent) as i64 - 1;
+                }
+                continue;
+            }
             self.priorities[parent.index()] = px;
-            if px < settings::ERROR_BOUND_MERGE * bound && cut.can_coarse(h, parent).is_ok() {
+            if mergeable {
                 budget -= h.child_count(parent) as i64 - 1;
+                projected -= h.child_count(parent) as i64 - 1;
             }
         }
-        budget.max(1) as usize
+        (budget.max(1) as usize, projected.max(1) as usize)
     }
 }
 

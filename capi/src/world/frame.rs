@@ -1,0 +1,579 @@
+//! [`FrameBudgeter`]: one world frame under one budget — every crowd advanced, every cloth
+//! stepped, on all cores, each object's detail set from the world's shared error bound, the
+//! frame's cost counted and fed to the controller.
+//!
+//! Based on: the simulation-LOD paper (`simulation-lod-treecut-softbody-bswdf.txt`), section 5
+//! ("a maximal computation time" as a budget, the TreeCut evaluation run beside the
+//! simulation), and the practice of NVIDIA APEX (a scene-wide LOD resource budget spent by each
+//! actor's benefit) and Unreal's animation budget allocator (a millisecond budget for all
+//! skeletal meshes, with per-component overrides).
+//!
+//! The budgeter does not own the objects: a frame is `begin_frame`, `advance_crowds`,
+//! `step_cloths`, `end_frame`, each given the objects by key, so [`super::World`] (Rust) and
+//! the C world (its own arenas, and bone-attached cloths that must see their character's new
+//! pose between the crowd and the cloth phase) share it.
+
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use rayon::prelude::*;
+use salience::View;
+
+use super::budget::{BudgetShare, BudgetTarget, FrameClock, WorldBudget, WorldError};
+use super::controller::{ErrorBoundController, FrameCost};
+use crate::cloth::{AdaptiveCloth, ClothBudget, FeedbackSettings};
+use animlod::{Crowd, LodMode};
+
+/// The kind of object a key names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum ObjectKind {
+    /// An [`AdaptiveCloth`].
+    Cloth,
+    /// An [`animlod::Crowd`].
+    Crowd,
+}
+
+/// Names an object to the budget: its kind and a number unique among objects of that kind in
+/// the world (a generational handle packed into 64 bits).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct ObjectKey {
+    /// Cloth or crowd.
+    pub kind: ObjectKind,
+    /// Unique among the world's objects of this kind.
+    pub id: u64,
+}
+
+/// What one object did in one frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ObjectFrame {
+    /// Which object.
+    pub key: ObjectKey,
+    /// Its cost this frame, in cost units.
+    pub units: f64,
+    /// Its detail: simulated nodes of a cloth, bones interpolated by a crowd.
+    pub detail: u64,
+    /// Its detail at full resolution: the cloth's finest node count, the crowd's animated bones.
+    pub full_detail: u64,
+    /// The error bound it ran under, px (0 when it keeps its own settings or is at full detail).
+    pub bound_px: f32,
+    /// How it takes part in the budget.
+    pub share: BudgetShare,
+}
+
+/// What one world frame did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WorldStepStats {
+    /// Frames stepped so far, this one included.
+    pub frame: u64,
+    /// Wall time of the frame (crowds, cloths, the budget's own work), ms.
+    pub wall_ms: f64,
+    /// Wall time of the crowd phase, ms.
+    pub crowd_ms: f64,
+    /// Wall time of the cloth phase, ms.
+    pub cloth_ms: f64,
+    /// Modelled cost of the frame, cost units.
+    pub cost_units: f64,
+    /// What the controller measured (ms or cost units, as the target; 0 without a budget).
+    pub measured: f64,
+    /// The error bound the frame's shared objects ran under, px.
+    pub error_bound_px: f32,
+    /// Cloths stepped.
+    pub cloths: u32,
+    /// Crowds advanced.
+    pub crowds: u32,
+    /// Solver steps taken over all cloths.
+    pub cloth_steps: u32,
+    /// Feedback evaluations run over all cloths.
+    pub evaluations: u32,
+    /// Simulated nodes over all cloths after the frame.
+    pub cloth_nodes: u64,
+    /// Finest nodes over all cloths.
+    pub cloth_full_nodes: u64,
+    /// Bones interpolated over all crowds.
+    pub bones_interpolated: u64,
+    /// Animated bones over all crowds (interpolated or held).
+    pub bones_animated: u64,
+    /// Threads the frame could use.
+    pub threads: u32,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct ObjectState {
+    share: BudgetShare,
+    /// Simulated time owed to a cloth (its `dt` may differ from the frame's), s.
+    debt: f64,
+    /// The frame that last stepped it (objects not stepped in a frame are forgotten).
+    seen: u64,
+    /// The evaluation phase it was given (see `balance_phases`).
+    phase: Option<u32>,
+}
+
+impl Default for ObjectState {
+    fn default() -> Self {
+        ObjectState {
+            share: BudgetShare::default(),
+            debt: 0.0,
+            seen: u64::MAX,
+            phase: None,
+        }
+    }
+}
+
+/// A frame in progress (from [`FrameBudgeter::begin_frame`] to [`FrameBudgeter::end_frame`]).
+#[derive(Debug)]
+pub struct Frame {
+    start: Instant,
+    stats: WorldStepStats,
+    objects: Vec<ObjectFrame>,
+    /// Cost units the cloths are committed to (see [`FrameCost`]).
+    committed_units: f64,
+    /// Cost units of crowds and evaluations.
+    fluctuating_units: f64,
+    first_error: Option<WorldError>,
+}
+
+impl Frame {
+    /// The error bound of this frame, px.
+    pub fn error_bound_px(&self) -> f32 {
+        self.stats.error_bound_px
+    }
+
+    fn fail(&mut self, e: impl Into<WorldError>) {
+        if self.first_error.is_none() {
+            self.first_error = Some(e.into());
+        }
+    }
+}
+
+/// Spends one frame budget across a world's cloths and crowds (see the module docs and
+/// [`WorldBudget`]).
+#[derive(Debug)]
+pub struct FrameBudgeter {
+    settings: WorldBudget,
+    controller: ErrorBoundController,
+    pool: Option<rayon::ThreadPool>,
+    objects: BTreeMap<ObjectKey, ObjectState>,
+    frames: u64,
+    last: WorldStepStats,
+    last_objects: Vec<ObjectFrame>,
+}
+
+impl FrameBudgeter {
+    /// A budgeter with these settings (validated; a pool is started for `threads ≥ 2`).
+    pub fn new(settings: WorldBudget) -> Result<FrameBudgeter, WorldError> {
+        settings.validate()?;
+        Ok(FrameBudgeter {
+            pool: make_pool(settings.threads)?,
+            controller: ErrorBoundController::new(&settings),
+            settings,
+            objects: BTreeMap::new(),
+            frames: 0,
+            last: WorldStepStats::default(),
+            last_objects: Vec::new(),
+        })
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &WorldBudget {
+        &self.settings
+    }
+
+    /// Replaces the settings (refused, with nothing changed, if invalid). The controller keeps
+    /// its bound when only the target's value changes; a new kind of target, new bound limits or
+    /// a new initial bound restart it.
+    pub fn set_settings(&mut self, settings: WorldBudget) -> Result<(), WorldError> {
+        settings.validate()?;
+        let pool = if settings.threads != self.settings.threads {
+            Some(make_pool(settings.threads)?)
+        } else {
+            None
+        };
+        let same_kind = std::mem::discriminant(&settings.target)
+            == std::mem::discriminant(&self.settings.target);
+        let same_limits = settings.initial_error_px == self.settings.initial_error_px
+            && settings.min_error_px == self.settings.min_error_px
+            && settings.max_error_px == self.settings.max_error_px;
+        if !(same_kind && same_limits) {
+            self.controller = ErrorBoundController::new(&settings);
+        }
+        if let Some(p) = pool {
+            self.pool = p;
+        }
+        self.settings = settings;
+        Ok(())
+    }
+
+    /// Sets how an object takes part in the budget (validated). The caller checks the object
+    /// exists; a share set for an object that is then never stepped is forgotten.
+    pub fn set_share(&mut self, key: ObjectKey, share: BudgetShare) -> Result<(), WorldError> {
+        share.validate()?;
+        let state = self.objects.entry(key).or_default();
+        state.share = share;
+        Ok(())
+    }
+
+    /// How an object takes part in the budget (the default for one never set).
+    pub fn share(&self, key: ObjectKey) -> BudgetShare {
+        self.objects
+            .get(&key)
+            .map_or_else(BudgetShare::default, |s| s.share)
+    }
+
+    /// Forgets an object (call when it is destroyed).
+    pub fn forget(&mut self, key: ObjectKey) {
+        self.objects.remove(&key);
+    }
+
+    /// The current shared error bound, px.
+    pub fn error_bound_px(&self) -> f32 {
+        self.controller.bound_px()
+    }
+
+    /// What the last frame did.
+    pub fn last_stats(&self) -> &WorldStepStats {
+        &self.last
+    }
+
+    /// What each object did in the last frame (crowds first, then cloths, in the order given).
+    pub fn last_objects(&self) -> &[ObjectFrame] {
+        &self.last_objects
+    }
+
+    /// Threads a frame uses.
+    pub fn threads(&self) -> usize {
+        match (&self.pool, self.settings.threads) {
+            (Some(p), _) => p.current_num_threads(),
+            (None, 1) => 1,
+            (None, _) => rayon::current_num_threads(),
+        }
+    }
+
+    fn serial(&self) -> bool {
+        self.settings.threads == 1
+    }
+
+    fn install<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
+        match &self.pool {
+            Some(p) => p.install(f),
+            None => f(),
+        }
+    }
+
+    /// Starts a frame: fixes its error bound.
+    pub fn begin_frame(&mut self) -> Frame {
+        self.frames += 1;
+        Frame {
+            start: Instant::now(),
+            stats: WorldStepStats {
+                frame: self.frames,
+                error_bound_px: self.controller.bound_px(),
+                threads: self.threads() as u32,
+                ..WorldStepStats::default()
+            },
+            objects: Vec::new(),
+            committed_units: 0.0,
+            fluctuating_units: 0.0,
+            first_error: None,
+        }
+    }
+
+    /// The bound an object runs under this frame, or `None` when the world leaves its detail
+    /// alone (its own settings, or no world budget).
+    fn bound_for(&self, share: BudgetShare, frame: &Frame) -> Option<f32> {
+        match (share, self.settings.target) {
+            (_, BudgetTarget::None) => None,
+            (BudgetShare::Shared { weight }, _) => Some(frame.stats.error_bound_px / weight),
+            _ => None,
+        }
+    }
+
+    /// Advances every crowd by `dt` seconds seen through `view`, each split across the threads.
+    /// A crowd that fails is reported by [`FrameBudgeter::end_frame`]; the others still advance.
+    pub fn advance_crowds<'a>(
+        &mut self,
+        frame: &mut Frame,
+        dt: f32,
+        view: &View,
+        crowds: impl IntoIterator<Item = (ObjectKey, &'a mut Crowd)>,
+    ) {
+        let t = Instant::now();
+        let parallel = !self.serial();
+        let cost = self.settings.cost;
+        for (key, crowd) in crowds {
+            let state = self.objects.entry(key).or_default();
+            state.seen = self.frames;
+            let share = state.share;
+            let bound = self.bound_for(share, frame);
+            let applied = match share {
+                BudgetShare::FullDetail if crowd.lod() != LodMode::Off => {
+                    crowd.set_lod(LodMode::Off)
+                }
+                _ => match bound {
+                    Some(b) if crowd.lod() != (LodMode::ErrorBound { max_error_px: b }) => {
+                        crowd.set_error_bound_px(b)
+                    }
+                    _ => Ok(()),
+                },
+            };
+            if let Err(e) = applied {
+                frame.fail(e);
+            }
+            crowd.set_parallel(parallel);
+            match self.install(|| crowd.advance(dt, view)) {
+                Ok(s) => {
+                    let units = s.bones_interpolated as f64 * cost.bone_sampled as f64
+                        + s.bones_concatenated as f64 * cost.bone_concatenated as f64
+                        + s.characters as f64 * cost.character as f64;
+                    let animated = s.bones_interpolated + s.bones_held;
+                    frame.stats.crowds += 1;
+                    frame.stats.cost_units += units;
+                    frame.fluctuating_units += units;
+                    frame.stats.bones_interpolated += s.bones_interpolated;
+                    frame.stats.bones_animated += animated;
+                    frame.objects.push(ObjectFrame {
+                        key,
+                        units,
+                        detail: s.bones_interpolated,
+                        full_detail: animated,
+                        bound_px: bound.unwrap_or(0.0),
+                        share,
+                    });
+                }
+                Err(e) => frame.fail(e),
+            }
+        }
+        frame.stats.crowd_ms += t.elapsed().as_secs_f64() * 1e3;
+    }
+
+    /// Steps every cloth through `dt` seconds of simulated time (as many of its own solver
+    /// steps as fit, at most `max_cloth_steps`), seen through `view`, the cloths in parallel.
+    /// Each cloth's detail follows its share first. A cloth that fails is reported by
+    /// [`FrameBudgeter::end_frame`]; the others still step.
+    pub fn step_cloths<'a>(
+        &mut self,
+        frame: &mut Frame,
+        dt: f32,
+        view: &View,
+        cloths: impl IntoIterator<Item = (ObjectKey, &'a mut AdaptiveCloth)>,
+    ) {
+        let t = Instant::now();
+        let mut jobs: Vec<ClothJob<'a>> = Vec::new();
+        for (key, cloth) in cloths {
+            let frames = self.frames;
+            let max_steps = self.settings.max_cloth_steps;
+            let state = self.objects.entry(key).or_default();
+            state.seen = frames;
+            let cloth_dt = cloth.body().settings().solver.dt as f64;
+            let owed = state.debt + dt as f64;
+            let mut steps = (owed / cloth_dt + 1e-6).floor().max(0.0) as u32;
+            if steps > max_steps {
+                steps = max_steps;
+                state.debt = 0.0;
+            } else {
+                state.debt = (owed - steps as f64 * cloth_dt).max(0.0);
+            }
+            let share = state.share;
+            let bound = self.bound_for(share, frame);
+            if let Err(e) = apply_cloth_share(cloth, share, bound) {
+                frame.fail(e);
+            }
+            jobs.push(ClothJob {
+                key,
+                cloth,
+                steps,
+                bound: bound.unwrap_or(0.0),
+                share,
+                outcome: Ok((0, 0)),
+            });
+        }
+        if (self.frames - 1).is_multiple_of(self.settings.update_frames as u64) {
+            self.balance_phases(&mut jobs);
+        }
+        let run = |job: &mut ClothJob<'a>| {
+            let before = job.cloth.stats().evaluations;
+            let mut taken = 0;
+            job.outcome = (|| {
+                for _ in 0..job.steps {
+                    job.cloth.step(view)?;
+                    taken += 1;
+                }
+                Ok((taken, job.cloth.stats().evaluations - before))
+            })();
+        };
+        if self.serial() || jobs.len() < 2 {
+            jobs.iter_mut().for_each(run);
+        } else {
+            self.install(|| jobs.par_iter_mut().for_each(run));
+        }
+        let cost = self.settings.cost;
+        for job in jobs {
+            let (steps, evaluations) = match job.outcome {
+                Ok(v) => v,
+                Err(e) => {
+                    frame.fail(e);
+                    (0, 0)
+                }
+            };
+            let c = &*job.cloth;
+            let solver = c.body().settings().solver;
+            let nodes = c.node_count() as f64;
+            let per_step = c.link_count() as f64
+                * (solver.substeps * solver.iterations) as f64
+                * cost.link_iteration as f64
+                + nodes * solver.substeps as f64 * cost.node_substep as f64;
+            let evaluation_units = evaluations as f64 * nodes * cost.evaluation_node as f64;
+            let units = per_step * steps as f64 + evaluation_units;
+            // What a step will cost once the cut reaches the node count the last evaluation
+            // chose (see `FrameCost`).
+            let chosen = c.stats().projected_nodes;
+            let committed = if c.feedback().is_some() && chosen > 0 && nodes > 0.0 {
+                per_step * (chosen as f64 / nodes).min(full_ratio(c))
+            } else {
+                per_step
+            };
+            frame.committed_units += committed * steps as f64;
+            frame.fluctuating_units += evaluation_units;
+            let full = c.hierarchy().vertex_count() as u64;
+            frame.stats.cloths += 1;
+            frame.stats.cloth_steps += steps;
+            frame.stats.evaluations += evaluations as u32;
+            frame.stats.cost_units += units;
+            frame.stats.cloth_nodes += c.node_count() as u64;
+            frame.stats.cloth_full_nodes += full;
+            frame.objects.push(ObjectFrame {
+                key: job.key,
+                units,
+                detail: c.node_count() as u64,
+                full_detail: full,
+                bound_px: job.bound,
+                share: job.share,
+            });
+        }
+        frame.stats.cloth_ms += t.elapsed().as_secs_f64() * 1e3;
+    }
+
+    /// Ends the frame: measures it, feeds the controller, forgets objects that were not stepped,
+    /// and returns its statistics, or the first error an object reported (every other object
+    /// still advanced; the statistics are kept either way).
+    pub fn end_frame(&mut self, mut frame: Frame) -> Result<WorldStepStats, WorldError> {
+        frame.stats.wall_ms = frame.start.elapsed().as_secs_f64() * 1e3;
+        let measured = match self.settings.target {
+            BudgetTarget::None => None,
+            BudgetTarget::Milliseconds(ms) => Some((
+                match self.settings.clock {
+                    FrameClock::Wall => frame.stats.wall_ms,
+                    FrameClock::Modelled { ns_per_unit } => {
+                        frame.stats.cost_units * ns_per_unit * 1e-6
+                    }
+                },
+                ms as f64,
+            )),
+            BudgetTarget::CostUnits(u) => Some((frame.stats.cost_units, u)),
+        };
+        if let Some((cost, target)) = measured {
+            frame.stats.measured = cost;
+            let ms = match self.settings.clock {
+                FrameClock::Wall => frame.stats.wall_ms,
+                FrameClock::Modelled { ns_per_unit } => frame.stats.cost_units * ns_per_unit * 1e-6,
+            };
+            let in_ms = matches!(self.settings.target, BudgetTarget::Milliseconds(_));
+            let seen = FrameCost {
+                committed_units: frame.committed_units,
+                fluctuating_units: frame.fluctuating_units,
+                units: frame.stats.cost_units,
+                ms,
+            };
+            self.controller.observe(seen, target, in_ms, &self.settings);
+        }
+        let now = self.frames;
+        // Shares set since the last frame for objects not yet stepped have `seen == MAX`.
+        self.objects
+            .retain(|_, s| s.seen == now || s.seen == u64::MAX);
+        self.last = frame.stats;
+        self.last_objects = frame.objects;
+        match frame.first_error {
+            Some(e) => Err(e),
+            None => Ok(frame.stats),
+        }
+    }
+}
+
+struct ClothJob<'a> {
+    key: ObjectKey,
+    cloth: &'a mut AdaptiveCloth,
+    steps: u32,
+    bound: f32,
+    share: BudgetShare,
+    outcome: Result<(u32, u64), crate::cloth::ClothError>,
+}
+
+/// Puts a cloth's feedback budget where its share says: the world's bound (in place, keeping
+/// the loop's state), the full cut, or untouched.
+fn apply_cloth_share(
+    cloth: &mut AdaptiveCloth,
+    share: BudgetShare,
+    bound: Option<f32>,
+) -> Result<(), WorldError> {
+    let current = cloth.feedback().map(|f| f.budget);
+    match (share, bound) {
+        (BudgetShare::FullDetail, _) if current != Some(ClothBudget::Compression(1.0)) => {
+            let base = cloth.feedback().copied().unwrap_or_default();
+            cloth.set_feedback(Some(FeedbackSettings {
+                budget: ClothBudget::Compression(1.0),
+                ..base
+            }))?;
+        }
+        (BudgetShare::FullDetail, _) => {}
+        (_, Some(b)) if current != Some(ClothBudget::MaxErrorPx(b)) => {
+            cloth.set_error_bound_px(b)?;
+        }
+        _ => {}
+    }
+    Ok(())
+}
+
+impl FrameBudgeter {
+    /// Spreads the cloths' feedback evaluations over the phases of the interval so that every
+    /// frame evaluates about as many nodes: an evaluation costs about as much as a step, and
+    /// all cloths evaluating on the same frame make every k-th frame twice as long. Largest
+    /// cloth first into the phase with the fewest nodes so far (longest-processing-time
+    /// scheduling), by the node counts now, ties by key: deterministic. Run at the first frame
+    /// of each controller window, as the cuts change.
+    fn balance_phases(&mut self, jobs: &mut [ClothJob<'_>]) {
+        let mut order: Vec<usize> = (0..jobs.len()).collect();
+        order.sort_by_key(|&i| (std::cmp::Reverse(jobs[i].cloth.node_count()), jobs[i].key));
+        let mut load: Vec<u64> = Vec::new();
+        for i in order {
+            let job = &mut jobs[i];
+            let interval = job.cloth.feedback().map_or(1, |f| f.interval).max(1) as usize;
+            if load.len() < interval {
+                load.resize(interval, 0);
+            }
+            let phase = (0..interval).min_by_key(|&p| (load[p], p)).unwrap_or(0);
+            load[phase] += job.cloth.node_count() as u64;
+            let state = self.objects.entry(job.key).or_default();
+            if state.phase != Some(phase as u32) {
+                // Moving a cloth's phase shifts its next evaluation by less than an interval.
+                job.cloth.set_evaluation_phase(phase as u32);
+                state.phase = Some(phase as u32);
+            }
+        }
+    }
+}
+
+/// The most a cloth's step can grow by (its finest node count over its node count now).
+fn full_ratio(c: &AdaptiveCloth) -> f64 {
+    c.hierarchy().vertex_count() as f64 / c.node_count().max(1) as f64
+}
+
+fn make_pool(threads: usize) -> Result<Option<rayon::ThreadPool>, WorldError> {
+    if threads < 2 {
+        return Ok(None);
+    }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(|i| format!("slod-budget-{i}"))
+        .build()
+        .map(Some)
+        .map_err(|e| WorldError::Threads(e.to_string()))
+}
