@@ -400,6 +400,97 @@ static int run_cape(SlodWorld *world, const char *rig_path, unsigned steps) {
     return finite ? 0 : 1;
 }
 
+/* The world step under one frame budget: three hanging cloths at 2, 6 and 18 m and a crowd,
+ * stepped together by slod_world_step under a deterministic cost-unit budget (the world was
+ * created with one worker thread, so the run is reproducible). The budget is five times what the
+ * coarse start costs; the near cloth is forced to full detail (a host override). */
+static int run_world(SlodWorld *world, const char *rig_path, unsigned frames) {
+    const float dist[3] = {2.0f, 6.0f, 18.0f};
+    SlodClothId cloths[3];
+    for (int k = 0; k < 3; ++k) {
+        SlodClothDesc desc = slod_default_cloth_desc();
+        desc.columns = 17;
+        desc.rows = 17;
+        desc.spacing = 1.2f / 16.0f;
+        desc.center[0] = (float)k - 1.0f;
+        desc.center[1] = 1.2f;
+        desc.center[2] = -dist[k];
+        desc.axis_u[0] = 1.0f; desc.axis_u[1] = 0.0f; desc.axis_u[2] = 0.0f;
+        desc.axis_v[0] = 0.0f; desc.axis_v[1] = -1.0f; desc.axis_v[2] = 0.0f;
+        desc.initial_level = 2;
+        CHECK(slod_cloth_create_grid(world, &desc, &cloths[k]));
+        /* Pin the top row where it rests: vertex (i, 0) is i. */
+        size_t n = 0;
+        float *all = malloc(3 * 17 * 17 * sizeof *all);
+        if (!all) return 1;
+        CHECK(slod_cloth_vertex_positions(world, cloths[k], all, 17 * 17, &n));
+        for (unsigned i = 0; i < 17; ++i) {
+            CHECK(slod_cloth_pin_vertex(world, cloths[k], i, all[3 * i], all[3 * i + 1],
+                                        all[3 * i + 2]));
+        }
+        free(all);
+        SlodWindDesc wind = slod_default_wind_desc();
+        wind.velocity[0] = 1.0f;
+        wind.velocity[2] = 3.0f;
+        CHECK(slod_cloth_set_wind(world, cloths[k], &wind));
+    }
+    SlodRigId rig;
+    CHECK(slod_rig_load_file(world, rig_path, &rig));
+    SlodCrowdDesc cd = slod_default_crowd_desc();
+    SlodCrowdId crowd;
+    CHECK(slod_crowd_create(world, rig, &cd, &crowd));
+    for (unsigned i = 0; i < 20; ++i) {
+        SlodCharacterDesc ch = slod_default_character_desc();
+        ch.position[0] = (float)(i % 5) - 2.0f;
+        ch.position[2] = -3.0f - 2.0f * (float)i;
+        ch.time = 0.41f * (float)i;
+        SlodCharacterId id;
+        CHECK(slod_character_create(world, crowd, &ch, &id));
+    }
+    SlodCamera cam = look_at(0.0f, 1.6f, 3.0f, 0.0f, 1.0f, -10.0f);
+    CHECK(slod_world_set_camera(world, &cam));
+
+    /* One frame without a budget measures the coarse start. */
+    SlodWorldStepStats s;
+    CHECK(slod_world_step(world, 1.0f / 60.0f, &s));
+    SlodWorldBudgetDesc b = slod_default_world_budget_desc();
+    b.target_kind = SLOD_WORLD_BUDGET_KIND_COST_UNITS;
+    b.target_units = 5.0 * s.cost_units;
+    CHECK(slod_world_set_budget(world, &b));
+    CHECK(slod_world_set_cloth_share(world, cloths[0], SLOD_BUDGET_SHARE_FULL_DETAIL, 1.0f));
+
+    /* Bad input is refused and changes nothing. */
+    SlodWorldBudgetDesc bad = b;
+    bad.target_kind = SLOD_WORLD_BUDGET_KIND_MILLISECONDS;
+    bad.target_ms = 0.0f;
+    int refused = slod_world_set_budget(world, &bad) == SLOD_RESULT_INVALID_ARGUMENT;
+    refused &= slod_world_set_cloth_share(world, cloths[1], SLOD_BUDGET_SHARE_SHARED, -1.0f) ==
+               SLOD_RESULT_INVALID_ARGUMENT;
+    refused &= slod_world_step(world, -1.0f, NULL) == SLOD_RESULT_INVALID_ARGUMENT;
+
+    double tail = 0.0;
+    unsigned tail_frames = 0;
+    for (unsigned f = 0; f < frames; ++f) {
+        CHECK(slod_world_step(world, 1.0f / 60.0f, &s));
+        if (f + 30 >= frames) {
+            tail += s.measured / b.target_units;
+            ++tail_frames;
+        }
+    }
+    size_t forced = 0, forced_full = 0;
+    CHECK(slod_cloth_node_count(world, cloths[0], &forced));
+    CHECK(slod_cloth_vertex_count(world, cloths[0], &forced_full));
+    float bound = 0.0f;
+    CHECK(slod_world_error_bound(world, &bound));
+    printf("world frames %u bound %.3f cost_ratio %.3f nodes %llu forced_full %d refused %d\n",
+           frames, bound, tail_frames ? tail / tail_frames : 0.0,
+           (unsigned long long)s.cloth_nodes, forced == forced_full, refused);
+    for (int k = 0; k < 3; ++k) CHECK(slod_cloth_destroy(world, cloths[k]));
+    CHECK(slod_crowd_destroy(world, crowd));
+    CHECK(slod_rig_destroy(world, rig));
+    return 0;
+}
+
 int main(int argc, char **argv) {
     unsigned steps = 600, characters = 100, frames = 30;
     const char *rig = "../assets/gltf/GDQuest_GDBot.glb";
@@ -431,6 +522,7 @@ int main(int argc, char **argv) {
     int status = run_net(world, steps);
     if (status == 0) status = run_crowd(world, rig, characters, frames);
     if (status == 0) status = run_cape(world, rig, steps < 120 ? steps : 120);
+    if (status == 0) status = run_world(world, rig, steps < 240 ? steps : 240);
 
     SlodWorldCounts counts;
     CHECK(slod_world_counts(world, &counts));

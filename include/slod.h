@@ -342,6 +342,72 @@ typedef uint32_t SlodShape;
 #endif // __cplusplus
 
 /**
+ * What a world frame may spend (values of `SlodWorldBudgetDesc::target_kind`).
+ */
+enum SlodWorldBudgetKind
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /**
+   * No world budget: every object keeps its own settings; `slod_world_step` only steps them
+   * (in parallel). The default.
+   */
+  SLOD_WORLD_BUDGET_KIND_NONE = 0,
+  /**
+   * `target_ms` milliseconds of wall time per frame (> 0, <= 1e6). The shared error bound
+   * follows measured time, so results depend on the machine and its load.
+   */
+  SLOD_WORLD_BUDGET_KIND_MILLISECONDS = 1,
+  /**
+   * `target_units` cost units per frame (> 0, finite), counted from the work done (see
+   * `SlodCostModel`): the same calls give bit-identical results on any machine and with any
+   * thread count.
+   */
+  SLOD_WORLD_BUDGET_KIND_COST_UNITS = 2,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum SlodWorldBudgetKind SlodWorldBudgetKind;
+#else
+typedef uint32_t SlodWorldBudgetKind;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * How one object takes part in the world budget (values of `share` in
+ * `slod_world_set_cloth_share` / `slod_world_set_crowd_share`).
+ */
+enum SlodBudgetShare
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /**
+   * Spends the world budget: its error bound is the world's divided by `weight` (> 0,
+   * finite; 1 = as its pixels say, 2 = the detail of an object twice as large on screen).
+   * The default for every object.
+   */
+  SLOD_BUDGET_SHARE_SHARED = 0,
+  /**
+   * Always at full detail (the cloth's finest cut, the crowd with LOD off); its cost still
+   * counts, so the others give way.
+   */
+  SLOD_BUDGET_SHARE_FULL_DETAIL = 1,
+  /**
+   * Keeps its own budget or LOD mode; the world steps it and counts its cost.
+   */
+  SLOD_BUDGET_SHARE_OWN = 2,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum SlodBudgetShare SlodBudgetShare;
+#else
+typedef uint32_t SlodBudgetShare;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
  * Everything a host created: cloths, rigs, crowds and characters. Opaque to C.
  *
  * Threads: a world is used from one thread at a time; functions taking `const SlodWorld*` may
@@ -391,6 +457,211 @@ typedef struct SlodWorldCounts {
    */
   uint32_t characters;
 } SlodWorldCounts;
+
+/**
+ * What each kind of work costs in cost units (modelled nanoseconds on one core). Only the
+ * ratios matter for a budget; the defaults were measured on the project's reference machine.
+ */
+typedef struct SlodCostModel {
+  /**
+   * One link solved once (per substep per iteration). Finite, >= 0, like every field.
+   */
+  float link_iteration;
+  /**
+   * One simulated node through one substep.
+   */
+  float node_substep;
+  /**
+   * One simulated node through one feedback evaluation.
+   */
+  float evaluation_node;
+  /**
+   * One bone sampled and interpolated.
+   */
+  float bone_sampled;
+  /**
+   * One bone's model matrix recomputed.
+   */
+  float bone_concatenated;
+  /**
+   * One character advanced.
+   */
+  float character;
+} SlodCostModel;
+
+/**
+ * Settings of a world's frame budget. Get one from `slod_default_world_budget_desc`, set
+ * `target_kind` and its target, and pass it to `slod_world_set_budget`.
+ *
+ * One on-screen error bound in pixels is shared by every object with the `SHARED` share: each
+ * cloth refines where its estimated on-screen error exceeds it, each crowd holds bones until
+ * their drift reaches it; a controller moves the bound every `update_frames` frames so that
+ * a frame costs the target.
+ */
+typedef struct SlodWorldBudgetDesc {
+  /**
+   * Set by `slod_default_world_budget_desc`; do not change.
+   */
+  uint32_t guard;
+  /**
+   * A `SlodWorldBudgetKind` value.
+   */
+  uint32_t target_kind;
+  /**
+   * Target wall time per frame, ms (for `SLOD_WORLD_BUDGET_KIND_MILLISECONDS`).
+   */
+  float target_ms;
+  /**
+   * Target cost units per frame (for `SLOD_WORLD_BUDGET_KIND_COST_UNITS`).
+   */
+  double target_units;
+  /**
+   * Threads the world step uses: 0 = all of the world's worker threads (see
+   * `SlodWorldDesc::worker_threads`; a world created with 1 runs serially), 1 = the calling
+   * thread only, n >= 2 = a pool of n threads owned by the budget (at most 1024).
+   */
+  uint32_t threads;
+  /**
+   * The bound the controller starts from, px (> 0).
+   */
+  float initial_error_px;
+  /**
+   * Smallest bound the controller may set, px (> 0).
+   */
+  float min_error_px;
+  /**
+   * Largest bound, px (>= min_error_px).
+   */
+  float max_error_px;
+  /**
+   * Frames between controller updates (>= 1; the cloths' feedback interval).
+   */
+  uint32_t update_frames;
+  /**
+   * Fraction of the measured log-ratio the bound moves per update, in (0, 1].
+   */
+  float gain;
+  /**
+   * Relative distance from the target inside which the bound stays, in [0, 1).
+   */
+  float deadband;
+  /**
+   * Largest factor the bound changes by per update (> 1).
+   */
+  float max_change;
+  /**
+   * Most solver steps a cloth takes per frame when `dt` exceeds its own step (>= 1).
+   */
+  uint32_t max_cloth_steps;
+  /**
+   * How work is counted in cost units.
+   */
+  struct SlodCostModel cost;
+} SlodWorldBudgetDesc;
+
+/**
+ * A cloth (adaptive TreeCut soft body) in a world.
+ *
+ * `index1` is a slot index plus one and `generation` the slot's stamp; the all-zero value is
+ * the null id, never issued. Compare ids with both fields.
+ */
+typedef struct SlodClothId {
+  /**
+   * Slot index plus one; 0 for the null id.
+   */
+  uint32_t index1;
+  /**
+   * Generation stamp of the slot when the id was issued.
+   */
+  uint32_t generation;
+} SlodClothId;
+
+/**
+ * A crowd: characters of one rig animated together under one LOD mode.
+ *
+ * `index1` is a slot index plus one and `generation` the slot's stamp; the all-zero value is
+ * the null id, never issued. Compare ids with both fields.
+ */
+typedef struct SlodCrowdId {
+  /**
+   * Slot index plus one; 0 for the null id.
+   */
+  uint32_t index1;
+  /**
+   * Generation stamp of the slot when the id was issued.
+   */
+  uint32_t generation;
+} SlodCrowdId;
+
+/**
+ * What one `slod_world_step` did.
+ */
+typedef struct SlodWorldStepStats {
+  /**
+   * Frames stepped so far, this one included.
+   */
+  uint64_t frame;
+  /**
+   * Wall time of the frame, ms.
+   */
+  double wall_ms;
+  /**
+   * Wall time of the crowd phase, ms.
+   */
+  double crowd_ms;
+  /**
+   * Wall time of the cloth phase, ms.
+   */
+  double cloth_ms;
+  /**
+   * Modelled cost of the frame, cost units.
+   */
+  double cost_units;
+  /**
+   * What the controller measured (ms or units, as the target; 0 without a budget).
+   */
+  double measured;
+  /**
+   * The shared error bound the frame ran under, px.
+   */
+  float error_bound_px;
+  /**
+   * Threads the frame could use.
+   */
+  uint32_t threads;
+  /**
+   * Cloths stepped.
+   */
+  uint32_t cloths;
+  /**
+   * Crowds advanced.
+   */
+  uint32_t crowds;
+  /**
+   * Solver steps over all cloths.
+   */
+  uint32_t cloth_steps;
+  /**
+   * Feedback evaluations over all cloths.
+   */
+  uint32_t evaluations;
+  /**
+   * Simulated nodes over all cloths after the frame.
+   */
+  uint64_t cloth_nodes;
+  /**
+   * Finest nodes over all cloths.
+   */
+  uint64_t cloth_full_nodes;
+  /**
+   * Bones interpolated over all crowds.
+   */
+  uint64_t bones_interpolated;
+  /**
+   * Animated bones over all crowds.
+   */
+  uint64_t bones_animated;
+} SlodWorldStepStats;
 
 /**
  * The host's camera: a pinhole with a vertical field of view, a viewport in pixels and a near
@@ -595,23 +866,6 @@ typedef struct SlodFeedbackDesc {
    */
   uint32_t view_dependent;
 } SlodFeedbackDesc;
-
-/**
- * A cloth (adaptive TreeCut soft body) in a world.
- *
- * `index1` is a slot index plus one and `generation` the slot's stamp; the all-zero value is
- * the null id, never issued. Compare ids with both fields.
- */
-typedef struct SlodClothId {
-  /**
-   * Slot index plus one; 0 for the null id.
-   */
-  uint32_t index1;
-  /**
-   * Generation stamp of the slot when the id was issued.
-   */
-  uint32_t generation;
-} SlodClothId;
 
 /**
  * Counters and last measurements of a cloth (`slod_cloth_stats`).
@@ -979,23 +1233,6 @@ typedef struct SlodCrowdDesc {
 } SlodCrowdDesc;
 
 /**
- * A crowd: characters of one rig animated together under one LOD mode.
- *
- * `index1` is a slot index plus one and `generation` the slot's stamp; the all-zero value is
- * the null id, never issued. Compare ids with both fields.
- */
-typedef struct SlodCrowdId {
-  /**
-   * Slot index plus one; 0 for the null id.
-   */
-  uint32_t index1;
-  /**
-   * Generation stamp of the slot when the id was issued.
-   */
-  uint32_t generation;
-} SlodCrowdId;
-
-/**
  * What one `slod_crowd_advance` did, summed over the crowd.
  */
 typedef struct SlodCrowdStats {
@@ -1210,6 +1447,86 @@ SlodResult slod_world_create(const struct SlodWorldDesc *desc, struct SlodWorld 
  * other thread may be using it.
  */
 void slod_world_destroy(struct SlodWorld *world);
+
+/**
+ * The default world budget: no target (`SLOD_WORLD_BUDGET_KIND_NONE`), the Rust defaults for
+ * every other field (the bound starts at 1 px, moves within [0.05, 200] px every 5 frames).
+ *
+ * Returns a value the host owns; set `target_kind` and `target_ms` or `target_units`.
+ */
+struct SlodWorldBudgetDesc slod_default_world_budget_desc(void);
+
+/**
+ * Sets the world's frame budget (validated and copied). The controller keeps its bound when
+ * only the target value changes.
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_INVALID_ARGUMENT` naming the field (a target
+ * <= 0 or NaN, an unknown kind, a bad range, ...) and nothing changes; `SLOD_RESULT_REFUSED`
+ * if the budget's own threads cannot start.
+ *
+ * # Safety
+ * `world` NULL or a live world; `desc` NULL or a valid desc.
+ */
+SlodResult slod_world_set_budget(struct SlodWorld *world, const struct SlodWorldBudgetDesc *desc);
+
+/**
+ * Sets how a cloth takes part in the world budget: `SLOD_BUDGET_SHARE_SHARED` with `weight`
+ * (> 0, finite), `_FULL_DETAIL` (weight ignored) or `_OWN` (weight ignored: the cloth keeps
+ * the feedback settings the host gave it). Takes effect at the next `slod_world_step`.
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_INVALID_ARGUMENT`
+ * for an unknown share or a bad weight (nothing changes).
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_world_set_cloth_share(struct SlodWorld *world,
+                                      struct SlodClothId cloth,
+                                      uint32_t share,
+                                      float weight);
+
+/**
+ * Sets how a crowd takes part in the world budget (see `slod_world_set_cloth_share`; `_OWN`
+ * keeps the crowd's own LOD mode, `_FULL_DETAIL` plays it with LOD off).
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_INVALID_ARGUMENT`
+ * for an unknown share or a bad weight (nothing changes).
+ *
+ * # Safety
+ * `world` NULL or a live world.
+ */
+SlodResult slod_world_set_crowd_share(struct SlodWorld *world,
+                                      struct SlodCrowdId crowd,
+                                      uint32_t share,
+                                      float weight);
+
+/**
+ * Advances every crowd by `dt` seconds and every cloth through `dt` seconds of its own solver
+ * steps (at most `max_cloth_steps`), seen through the world's camera and light, under the
+ * world's budget: crowds first (split across the threads), then cloths worn by characters
+ * follow their new poses, then all cloths step in parallel. Writes what the frame did to
+ * `*out_stats` when it is not NULL.
+ *
+ * Use it instead of calling `slod_crowd_advance` and `slod_cloth_step` per object. Threads:
+ * mutates the world; runs on the world's worker threads (or the budget's own). Errors:
+ * `SLOD_RESULT_INVALID_ARGUMENT` for a `dt` outside [0, 3600] or NaN (nothing changes); an
+ * object that fails (a stale character a cloth is worn by, ...) is reported with its code
+ * after every other object has advanced, and the statistics are written anyway.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_stats` NULL or valid for a write.
+ */
+SlodResult slod_world_step(struct SlodWorld *world, float dt, struct SlodWorldStepStats *out_stats);
+
+/**
+ * Writes the world budget's current shared error bound, px, to `*out_px`.
+ *
+ * Threads: reads the world only.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_px` NULL or valid for a write.
+ */
+SlodResult slod_world_error_bound(const struct SlodWorld *world, float *out_px);
 
 /**
  * Sets the camera every cloth and crowd of the world sees from now on.

@@ -122,6 +122,32 @@ public:
         check(slod_world_counts(world_.get(), &c), "slod_world_counts");
         return c;
     }
+    /// Sets the world's frame budget (slod_world_set_budget).
+    void set_budget(const SlodWorldBudgetDesc &desc) {
+        check(slod_world_set_budget(world_.get(), &desc), "slod_world_set_budget");
+    }
+    /// Advances every crowd and cloth by one frame under the budget (slod_world_step).
+    SlodWorldStepStats step(float dt) {
+        SlodWorldStepStats s;
+        check(slod_world_step(world_.get(), dt, &s), "slod_world_step");
+        return s;
+    }
+    /// How a cloth takes part in the budget (slod_world_set_cloth_share).
+    void set_share(SlodClothId cloth, SlodBudgetShare share, float weight = 1.0f) {
+        check(slod_world_set_cloth_share(world_.get(), cloth, static_cast<uint32_t>(share), weight),
+              "slod_world_set_cloth_share");
+    }
+    /// How a crowd takes part in the budget (slod_world_set_crowd_share).
+    void set_share(SlodCrowdId crowd, SlodBudgetShare share, float weight = 1.0f) {
+        check(slod_world_set_crowd_share(world_.get(), crowd, static_cast<uint32_t>(share), weight),
+              "slod_world_set_crowd_share");
+    }
+    /// The budget's shared on-screen error bound now, px (slod_world_error_bound).
+    float error_bound() const {
+        float px = 0.0f;
+        check(slod_world_error_bound(world_.get(), &px), "slod_world_error_bound");
+        return px;
+    }
 
 private:
     detail::WorldRef world_;

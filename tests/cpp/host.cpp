@@ -58,6 +58,44 @@ SlodCamera camera_at(float z) {
     return c;
 }
 
+/// The world step under one budget, through the RAII wrapper: a cost-unit budget moves the
+/// shared bound, a cloth forced to full detail reaches its finest cut, bad input is refused
+/// and changes nothing.
+void budget_checks(slod::World &world) {
+    SlodClothDesc desc = slod_default_cloth_desc();
+    desc.columns = 17;
+    desc.rows = 17;
+    desc.initial_level = 2;
+    desc.center[2] = -2.0f;
+    slod::Cloth near = slod::Cloth::grid(world, desc);
+    desc.center[2] = -12.0f;
+    slod::Cloth far = slod::Cloth::grid(world, desc);
+    world.set_camera(camera_at(2.0f));
+    SlodWorldStepStats s = world.step(1.0f / 60.0f);
+    EXPECT(s.frame >= 1 && s.cloths == 2 && s.cloth_steps == 2 && s.cost_units > 0.0);
+    SlodWorldBudgetDesc b = slod_default_world_budget_desc();
+    b.target_kind = SLOD_WORLD_BUDGET_KIND_COST_UNITS;
+    b.target_units = 3.0 * s.cost_units;
+    world.set_budget(b);
+    world.set_share(near.id(), SLOD_BUDGET_SHARE_FULL_DETAIL);
+    world.set_share(far.id(), SLOD_BUDGET_SHARE_SHARED, 0.5f);
+    SlodWorldBudgetDesc bad = b;
+    bad.target_units = std::nan("");
+    EXPECT_ERROR(world.set_budget(bad), SLOD_RESULT_INVALID_ARGUMENT);
+    bad = b;
+    bad.target_kind = 99;
+    EXPECT_ERROR(world.set_budget(bad), SLOD_RESULT_INVALID_ARGUMENT);
+    EXPECT_ERROR(world.set_share(far.id(), SLOD_BUDGET_SHARE_SHARED, 0.0f),
+                 SLOD_RESULT_INVALID_ARGUMENT);
+    EXPECT_ERROR(world.step(std::nanf("")), SLOD_RESULT_INVALID_ARGUMENT);
+    for (int f = 0; f < 120; ++f) s = world.step(1.0f / 60.0f);
+    size_t nodes = 0, full = 0;
+    EXPECT(slod_cloth_node_count(world.get(), near.id(), &nodes) == SLOD_RESULT_OK);
+    EXPECT(slod_cloth_vertex_count(world.get(), near.id(), &full) == SLOD_RESULT_OK);
+    EXPECT(nodes == full);
+    EXPECT(world.error_bound() > 0.0f && s.error_bound_px > 0.0f);
+}
+
 void cloth_checks(slod::World &world) {
     SlodClothDesc desc = slod_default_cloth_desc();
     desc.columns = 17;
@@ -421,6 +459,7 @@ int main(int argc, char **argv) {
         cloth_checks(world);
         crowd_checks(world, argv[1]);
         engine_checks(world, argv[1]);
+        budget_checks(world);
         lifetime_checks();
         message_checks(world);
         SlodWorldCounts c = world.counts();

@@ -163,6 +163,17 @@ fn c_demo_runs_the_net_and_the_crowd() {
     assert!(field::<f64>(cape, "touching") > 0.0, "{cape}");
     let lowest: f64 = field(cape, "lowest");
     assert!(lowest > 0.0 && lowest < 0.6, "{cape}");
+    // The world step under a cost-unit budget: deterministic (one worker thread), so the
+    // frame cost of the last 30 frames holds the target within 10%; the cloth forced to full
+    // detail reached its finest cut; bad budgets, shares and dt were refused.
+    let world = lines
+        .iter()
+        .find(|l| l.starts_with("world frames"))
+        .expect("world line");
+    let ratio: f64 = field(world, "cost_ratio");
+    assert!((0.9..=1.1).contains(&ratio), "{world}");
+    assert_eq!(field::<i32>(world, "forced_full"), 1, "{world}");
+    assert_eq!(field::<i32>(world, "refused"), 1, "{world}");
     // The rig's structure and its mesh skinned on the CPU, over the C ABI.
     let skin_line = lines
         .iter()

@@ -74,6 +74,21 @@ impl<T> Arena<T> {
         self.inner.len()
     }
 
+    /// Every object with its id, in slot order.
+    pub(crate) fn iter_mut(&mut self) -> impl Iterator<Item = (RawId, &mut T)> + '_ {
+        self.inner
+            .iter_mut()
+            .map(|(h, v)| (RawId::from_handle(h), v))
+    }
+
+    /// Every object's id, in slot order.
+    pub(crate) fn ids(&self) -> Vec<RawId> {
+        self.inner
+            .iter()
+            .map(|(h, _)| RawId::from_handle(h))
+            .collect()
+    }
+
     /// Removes every object for which `remove` returns true (their ids go stale).
     pub(crate) fn remove_where(&mut self, remove: impl FnMut(&T) -> bool) {
         self.inner.remove_where(remove);

@@ -527,6 +527,7 @@ pub unsafe extern "C" fn slod_cloth_destroy(
         // SAFETY: caller contract: NULL or a live world used by this thread only.
         let world = unsafe { arg_mut(world, "world") }?;
         world.cloths.remove(RawId::from(cloth), "cloth")?;
+        super::world_budget::forget_cloth(world, RawId::from(cloth));
         Ok(())
     })
 }

@@ -290,6 +290,7 @@ pub unsafe extern "C" fn slod_crowd_destroy(
         let raw = RawId::from(crowd);
         world.crowds.remove(raw, "crowd")?;
         world.characters.remove_where(|(c, _)| *c == raw);
+        super::world_budget::forget_crowd(world, raw);
         Ok(())
     })
 }

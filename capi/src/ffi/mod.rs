@@ -5,7 +5,8 @@
 //! This is the only module of slod that contains `unsafe` code or `extern "C"` items. Every
 //! function body runs inside [`boundary::boundary`], so no panic crosses into C.
 //!
-//! Files by subject: [`world`] (world, versions, desc guard), [`view`] (camera, light),
+//! Files by subject: [`world`] (world, versions, desc guard), [`world_budget`] (the world
+//! step under one frame budget, per-object shares), [`view`] (camera, light),
 //! [`cloth`] and [`cloth_query`] (adaptive cloth), [`collider`] (colliders, wind, cloth worn
 //! by a character), [`rig`], [`crowd`] and [`character`]
 //! (animation), [`result`] (codes and the last error).
@@ -18,6 +19,8 @@ pub mod ids;
 pub mod result;
 
 pub mod world;
+
+pub mod world_budget;
 
 pub mod view;
 
@@ -52,3 +55,4 @@ pub use result::{SlodResult, slod_last_error, slod_result_str};
 pub use rig::*;
 pub use view::*;
 pub use world::*;
+pub use world_budget::*;

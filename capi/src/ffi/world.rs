@@ -93,6 +93,8 @@ pub struct SlodWorld {
     pub(crate) crowds: Arena<animlod::Crowd>,
     /// Each character's crowd and its id inside that crowd.
     pub(crate) characters: Arena<(RawId, animlod::CharacterId)>,
+    /// The frame budget `slod_world_step` spends (none until `slod_world_set_budget`).
+    pub(crate) budget: crate::world::FrameBudgeter,
 }
 
 impl Drop for SlodWorld {
@@ -226,6 +228,11 @@ pub unsafe extern "C" fn slod_world_create(
             rigs: Arena::default(),
             crowds: Arena::default(),
             characters: Arena::default(),
+            budget: crate::world::FrameBudgeter::new(crate::world::WorldBudget {
+                threads: if desc.worker_threads == 1 { 1 } else { 0 },
+                ..crate::world::WorldBudget::default()
+            })
+            .map_err(|e| FfiError::Refused(e.to_string()))?,
         });
         // SAFETY: `out_world` checked non-NULL; validity per caller contract.
         unsafe { write_out(out_world, Box::into_raw(world), "out_world") }
