@@ -11,7 +11,9 @@ use salience::View;
 use softbody::{DrawLink, TreeCutSettings, TreeCutSoftBody};
 use treecut::{GridSpec, Hierarchy, NodeId, Op};
 
+use super::clock::{StepClock, StepWork};
 use super::contact::ContactMemory;
+use super::controller::StepSample;
 use super::error::ClothError;
 use super::feedback::{Feedback, FeedbackSettings, Recent, node_radii};
 
@@ -42,9 +44,11 @@ pub struct ClothStats {
     /// node budget, or under `ClothBudget::MaxErrorPx` the count once refinement has gone down
     /// every level the error estimate asks for (what a world budget plans with).
     pub projected_nodes: usize,
-    /// Wall time of the last step, evaluation included, in seconds.
+    /// Time of the last step, evaluation included, in seconds, as the cloth's [`StepClock`]
+    /// measures it (the wall clock unless [`AdaptiveCloth::set_step_clock`] chose a model).
     pub last_step_seconds: f64,
-    /// Wall time of the last evaluation (salience, evaluator, beginning operations), seconds.
+    /// Time of the last evaluation (salience, evaluator, beginning operations), in seconds, as
+    /// the [`StepClock`] measures it.
     pub last_eval_seconds: f64,
 }
 
@@ -68,9 +72,8 @@ pub struct AdaptiveCloth {
     last_op: Vec<(u64, u8)>,
     ops: Vec<Op>,
     stats: ClothStats,
-    /// Wall time and count of the steps since the controller's last update.
-    interval_seconds: f64,
-    interval_steps: u32,
+    /// How steps are timed (for the statistics and the time budget).
+    clock: StepClock,
     /// Which nodes touched a collider since the last evaluation.
     contact: ContactMemory,
     /// Offset of this cloth's evaluation steps within the feedback interval (see
@@ -104,8 +107,7 @@ impl AdaptiveCloth {
             last_op: vec![(0, 0); len],
             ops: Vec::new(),
             stats: ClothStats::default(),
-            interval_seconds: 0.0,
-            interval_steps: 0,
+            clock: StepClock::Wall,
             contact: ContactMemory::default(),
             evaluation_phase: 0,
         })
@@ -174,6 +176,29 @@ impl AdaptiveCloth {
     /// The feedback settings, if feedback is on.
     pub fn feedback(&self) -> Option<&FeedbackSettings> {
         self.feedback.as_ref().map(|f| &f.settings)
+    }
+
+    /// How the cloth times its steps: [`ClothStats::last_step_seconds`] and what a
+    /// [`ClothBudget::TargetStepMs`](super::ClothBudget::TargetStepMs) controller reads.
+    pub fn step_clock(&self) -> StepClock {
+        self.clock
+    }
+
+    /// Chooses how the cloth times its steps: the wall clock (the default; what a host pays) or
+    /// a deterministic cost model of each step's work, with which a time-budget run gives the
+    /// same results on any machine under any load (for tests, and hosts that want
+    /// reproducible runs). A model with a negative or non-finite coefficient is refused.
+    pub fn set_step_clock(&mut self, clock: StepClock) -> Result<(), ClothError> {
+        if let StepClock::Model(m) = clock
+            && !m.is_valid()
+        {
+            return Err(ClothError::Feedback {
+                field: "step_clock",
+                reason: "cost model coefficients must be finite and >= 0",
+            });
+        }
+        self.clock = clock;
+        Ok(())
     }
 
     /// Turns the feedback loop on with these settings (or off with `None`). Invalid settings are
@@ -273,41 +298,55 @@ impl AdaptiveCloth {
     /// `interval` steps (counting from the first, shifted by the evaluation phase) also measures salience as seen through `view`
     /// (the frame's camera, viewport and light; the cloth keeps no copy) and begins the
     /// operations the evaluator chose. Operations whose blend is done end inside the step.
+    ///
+    /// With a time budget the controller is given every step's time (by the [`StepClock`]), the
+    /// evaluation's part of it, the nodes and the transitions in flight, and moves the node
+    /// budget once per interval, before the evaluation (see [`super::TimeController`]).
     pub fn step(&mut self, view: &View) -> Result<(), ClothError> {
         let start = Instant::now();
         let mut eval_seconds = None;
+        let mut work = StepWork::default();
         let due = self.feedback.as_ref().is_some_and(|f| {
             (self.stats.steps + self.evaluation_phase as u64)
                 .is_multiple_of(f.settings.interval as u64)
         });
         if due {
-            // The controller sees the mean step of the last interval, evaluation included:
-            // per-step times swing with the evaluation every `interval` steps, which would
-            // otherwise read as load changes.
-            if self.interval_steps > 0
-                && let Some(c) = self.feedback.as_mut().and_then(|f| f.controller.as_mut())
-            {
-                c.update(
-                    self.interval_seconds / self.interval_steps as f64,
-                    self.body.particle_count(),
-                );
+            if let Some(c) = self.feedback.as_mut().and_then(|f| f.controller.as_mut()) {
+                c.end_interval();
             }
-            self.interval_seconds = 0.0;
-            self.interval_steps = 0;
+            work.evaluated_nodes = self.body.particle_count() as u64;
             let t = Instant::now();
             self.evaluate(view)?;
             eval_seconds = Some(t.elapsed().as_secs_f64());
         }
+        let solver = self.body.settings().solver;
+        let passes = solver.substeps as u64;
+        work.link_iterations = self.link_count() as u64 * passes * solver.iterations as u64;
+        work.node_substeps = self.body.particle_count() as u64 * passes;
+        work.transitions = self.body.transitions_in_flight() as u64;
+        let nodes = self.body.particle_count();
         self.body.step();
         self.contact.after_step(&self.body);
         self.stats.steps += 1;
-        let seconds = start.elapsed().as_secs_f64();
+        let (seconds, eval_seconds) = match self.clock {
+            StepClock::Wall => (start.elapsed().as_secs_f64(), eval_seconds),
+            StepClock::Model(m) => (
+                m.seconds(&work),
+                eval_seconds.map(|_| m.evaluation_seconds(&work)),
+            ),
+        };
         self.stats.last_step_seconds = seconds;
         if let Some(e) = eval_seconds {
             self.stats.last_eval_seconds = e;
         }
-        self.interval_seconds += seconds;
-        self.interval_steps += 1;
+        if let Some(c) = self.feedback.as_mut().and_then(|f| f.controller.as_mut()) {
+            c.observe(StepSample {
+                seconds,
+                eval_seconds: eval_seconds.unwrap_or(0.0),
+                nodes,
+                transitions: work.transitions as usize,
+            });
+        }
         Ok(())
     }
 
@@ -359,14 +398,47 @@ impl AdaptiveCloth {
                 / active.len().max(1) as f64;
             let mut e = f.settings.evaluator_settings();
             e.hysteresis *= mean as f32;
+            // A time budget below the cut may merge as fast as the locks allow (one family
+            // per neighbourhood), on top of `max_ops`: the controller fits its cost per node
+            // from steps without transitions, so the transitions of a fast shrink no longer
+            // read as load, and at 64 operations a cold start from the finest 65×65 net took
+            // 15 evaluations (75 steps) to shed the nodes a 0.46 ms target needs.
+            if let Some(c) = &f.controller {
+                let over = active.len().saturating_sub(budget);
+                e.max_ops = if over > 0 {
+                    e.max_ops + over
+                } else {
+                    // Each operation begun now is a transition in flight for the next steps.
+                    let room = c.max_transitions(active.len()).unwrap_or(e.max_ops);
+                    let busy = self.body.transitions_in_flight();
+                    e.max_ops.min(room.saturating_sub(busy)).max(1)
+                };
+                // Every move of a time budget forces merges or opens room for refines, which
+                // the hysteresis does not filter: a node merged within the undo window ranks
+                // last for refining, and a parent refined within it is merged last.
+                let now = self.stats.steps;
+                let recent = |n: NodeId, kind: u8| {
+                    let (when, last) = self.last_op[n.index()];
+                    last == kind && now - when <= UNDO_WINDOW_STEPS
+                };
+                for &n in active {
+                    if recent(n, OP_COARSE) {
+                        f.priorities[n.index()] = 0.0;
+                    }
+                    if let Some(p) = h.parent(n)
+                        && recent(p, OP_REFINE)
+                    {
+                        f.priorities[p.index()] = f32::MAX;
+                    }
+                }
+            }
             f.evaluator.set_settings(e);
         }
         // The evaluator knows what beginning each operation locks (transitions lock their
         // neighbourhoods), so every operation of the batch begins, in the order given, and the
         // cut stays within the budget after each; a refusal is a bug, reported as an error.
-        // Over budget, merges count against `max_ops` like any operation: uncapped, a shrinking
-        // time budget began hundreds of transitions per evaluation, whose blending slowed the
-        // steps the controller measures, and it undershot (see `EvaluatorSettings::max_ops`).
+        // Over a node or compression budget, merges count against `max_ops` like any operation
+        // (see `EvaluatorSettings::max_ops`).
         f.evaluator.set_refine_floor(match f.settings.budget {
             super::feedback::ClothBudget::MaxErrorPx(bound) => {
                 super::feedback::ERROR_BOUND_REFINE * bound
@@ -384,6 +456,37 @@ impl AdaptiveCloth {
         )?;
         self.ops.clear();
         self.ops.extend_from_slice(ops);
+        let over = body.cut().len().saturating_sub(budget);
+        if over > 0 && f.controller.is_some() {
+            // A time budget that shrank: only the merges that bring the cut within it (the
+            // batch's first operations). Swaps in the same batch would find most nodes locked
+            // by the merges, keep room for refines they cannot begin, leave the cut under the
+            // budget and refine it back over the next evaluations: undone operations.
+            let (mut left, mut keep) = (over, 0);
+            for &op in &self.ops {
+                let Op::Coarse(p) = op else { break };
+                keep += 1;
+                left = left.saturating_sub(h.child_count(p).saturating_sub(1));
+                if left == 0 {
+                    break;
+                }
+            }
+            self.ops.truncate(keep);
+        } else if f.controller.is_some() {
+            // Nor is a node merged within the undo window refined back (a minimum dwell): its
+            // priority was zeroed above, but where most of the cut was merged recently (after a
+            // cold start's shrink) a budget that grows would still reach it. Leaving a refine
+            // out keeps every later operation of the batch valid: it only frees locks.
+            let now = self.stats.steps;
+            let last_op = &self.last_op;
+            self.ops.retain(|&op| match op {
+                Op::Refine(n) => {
+                    let (when, last) = last_op[n.index()];
+                    !(last == OP_COARSE && now - when <= UNDO_WINDOW_STEPS)
+                }
+                Op::Coarse(_) => true,
+            });
+        }
         self.stats.evaluations += 1;
         self.stats.node_budget = budget;
         self.stats.projected_nodes = f.projected_nodes(h.vertex_count());

@@ -3,6 +3,7 @@
 //! experiment measured against a full-resolution reference.
 
 mod adaptive;
+mod clock;
 mod contact;
 #[cfg(test)]
 mod contact_tests;
@@ -14,8 +15,9 @@ mod tests;
 mod worn;
 
 pub use adaptive::{AdaptiveCloth, ClothStats, UNDO_WINDOW_STEPS};
+pub use clock::{CostModel, StepClock, StepWork};
 pub use contact::ContactSettings;
-pub use controller::{ControllerSettings, TimeController};
+pub use controller::{ControllerSettings, StepSample, TimeController};
 pub use error::ClothError;
 pub use feedback::{ClothBudget, FeedbackSettings, PriorityModel, compression_nodes};
 pub use worn::BoneAttachments;

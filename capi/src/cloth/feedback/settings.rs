@@ -198,11 +198,12 @@ impl FeedbackSettings {
             && c.max_change > 0.0
             && c.max_change.is_finite()
             && c.deadband >= 0.0
-            && c.deadband < 1.0;
+            && c.deadband < 1.0
+            && unit(c.transition_share);
         if !ok {
             return bad(
                 "controller",
-                "smoothing and gain in (0, 1], max_change > 0, deadband in [0, 1)",
+                "smoothing, gain and transition_share in (0, 1], max_change > 0, deadband in [0, 1)",
             );
         }
         Ok(())
