@@ -461,30 +461,39 @@ typedef struct SlodWorldCounts {
 /**
  * What each kind of work costs in cost units (modelled nanoseconds on one core). Only the
  * ratios matter for a budget; the defaults were measured on the project's reference machine.
+ * Every field is finite and >= 0.
  */
 typedef struct SlodCostModel {
   /**
-   * One link solved once (per substep per iteration). Finite, >= 0, like every field.
+   * A cloth step whatever its work, ns.
    */
-  float link_iteration;
+  double cloth_step;
   /**
-   * One simulated node through one substep.
+   * One link solved once (per substep per iteration), ns.
    */
-  float node_substep;
+  double link_iteration;
   /**
-   * One simulated node through one feedback evaluation.
+   * One simulated node through one substep, ns.
    */
-  float evaluation_node;
+  double node_substep;
   /**
-   * One bone sampled and interpolated.
+   * One refine/coarse transition in flight through one step, ns.
+   */
+  double transition;
+  /**
+   * One simulated node through one feedback evaluation, ns.
+   */
+  double evaluation_node;
+  /**
+   * One bone sampled and interpolated, ns.
    */
   float bone_sampled;
   /**
-   * One bone's model matrix recomputed.
+   * One bone's model matrix recomputed, ns.
    */
   float bone_concatenated;
   /**
-   * One character advanced.
+   * One character advanced, ns.
    */
   float character;
 } SlodCostModel;

@@ -50,6 +50,9 @@ pub struct ClothStats {
     /// Time of the last evaluation (salience, evaluator, beginning operations), in seconds, as
     /// the [`StepClock`] measures it.
     pub last_eval_seconds: f64,
+    /// The work the last step did (what a [`super::CostModel`] charges): link solves, particle
+    /// updates, transitions in flight, nodes an evaluation measured.
+    pub last_work: StepWork,
 }
 
 /// A cloth whose simulated nodes follow a TreeCut chosen, every few steps, from what the
@@ -306,10 +309,7 @@ impl AdaptiveCloth {
         let start = Instant::now();
         let mut eval_seconds = None;
         let mut work = StepWork::default();
-        let due = self.feedback.as_ref().is_some_and(|f| {
-            (self.stats.steps + self.evaluation_phase as u64)
-                .is_multiple_of(f.settings.interval as u64)
-        });
+        let due = self.evaluation_due();
         if due {
             if let Some(c) = self.feedback.as_mut().and_then(|f| f.controller.as_mut()) {
                 c.end_interval();
@@ -324,6 +324,7 @@ impl AdaptiveCloth {
         work.link_iterations = self.link_count() as u64 * passes * solver.iterations as u64;
         work.node_substeps = self.body.particle_count() as u64 * passes;
         work.transitions = self.body.transitions_in_flight() as u64;
+        self.stats.last_work = work;
         let nodes = self.body.particle_count();
         self.body.step();
         self.contact.after_step(&self.body);
@@ -526,6 +527,15 @@ impl AdaptiveCloth {
 
     pub(crate) fn contact_mut(&mut self) -> &mut ContactMemory {
         &mut self.contact
+    }
+
+    /// Whether the next [`AdaptiveCloth::step`] runs the feedback stage (feedback on, and the
+    /// step count at the cloth's evaluation phase).
+    pub fn evaluation_due(&self) -> bool {
+        self.feedback.as_ref().is_some_and(|f| {
+            (self.stats.steps + self.evaluation_phase as u64)
+                .is_multiple_of(f.settings.interval as u64)
+        })
     }
 
     /// Refine/coarse transitions being blended now (the paper's "interpolations").

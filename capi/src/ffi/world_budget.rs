@@ -49,21 +49,56 @@ pub enum SlodBudgetShare {
 
 /// What each kind of work costs in cost units (modelled nanoseconds on one core). Only the
 /// ratios matter for a budget; the defaults were measured on the project's reference machine.
+/// Every field is finite and >= 0.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SlodCostModel {
-    /// One link solved once (per substep per iteration). Finite, >= 0, like every field.
-    pub link_iteration: f32,
-    /// One simulated node through one substep.
-    pub node_substep: f32,
-    /// One simulated node through one feedback evaluation.
-    pub evaluation_node: f32,
-    /// One bone sampled and interpolated.
+    /// A cloth step whatever its work, ns.
+    pub cloth_step: f64,
+    /// One link solved once (per substep per iteration), ns.
+    pub link_iteration: f64,
+    /// One simulated node through one substep, ns.
+    pub node_substep: f64,
+    /// One refine/coarse transition in flight through one step, ns.
+    pub transition: f64,
+    /// One simulated node through one feedback evaluation, ns.
+    pub evaluation_node: f64,
+    /// One bone sampled and interpolated, ns.
     pub bone_sampled: f32,
-    /// One bone's model matrix recomputed.
+    /// One bone's model matrix recomputed, ns.
     pub bone_concatenated: f32,
-    /// One character advanced.
+    /// One character advanced, ns.
     pub character: f32,
+}
+
+impl SlodCostModel {
+    fn from_model(m: &CostModel) -> SlodCostModel {
+        SlodCostModel {
+            cloth_step: m.cloth.fixed * 1e9,
+            link_iteration: m.cloth.link_iteration * 1e9,
+            node_substep: m.cloth.node_substep * 1e9,
+            transition: m.cloth.transition * 1e9,
+            evaluation_node: m.cloth.evaluated_node * 1e9,
+            bone_sampled: m.bone_sampled,
+            bone_concatenated: m.bone_concatenated,
+            character: m.character,
+        }
+    }
+
+    fn to_model(self) -> CostModel {
+        CostModel {
+            cloth: crate::cloth::CostModel {
+                fixed: self.cloth_step * 1e-9,
+                link_iteration: self.link_iteration * 1e-9,
+                node_substep: self.node_substep * 1e-9,
+                transition: self.transition * 1e-9,
+                evaluated_node: self.evaluation_node * 1e-9,
+            },
+            bone_sampled: self.bone_sampled,
+            bone_concatenated: self.bone_concatenated,
+            character: self.character,
+        }
+    }
 }
 
 /// Settings of a world's frame budget. Get one from `slod_default_world_budget_desc`, set
@@ -129,14 +164,7 @@ pub extern "C" fn slod_default_world_budget_desc() -> SlodWorldBudgetDesc {
         deadband: d.deadband,
         max_change: d.max_change,
         max_cloth_steps: d.max_cloth_steps,
-        cost: SlodCostModel {
-            link_iteration: d.cost.link_iteration,
-            node_substep: d.cost.node_substep,
-            evaluation_node: d.cost.evaluation_node,
-            bone_sampled: d.cost.bone_sampled,
-            bone_concatenated: d.cost.bone_concatenated,
-            character: d.cost.character,
-        },
+        cost: SlodCostModel::from_model(&d.cost),
     }
 }
 
@@ -182,14 +210,7 @@ impl SlodWorldBudgetDesc {
             deadband: self.deadband,
             max_change: self.max_change,
             max_cloth_steps: self.max_cloth_steps,
-            cost: CostModel {
-                link_iteration: self.cost.link_iteration,
-                node_substep: self.cost.node_substep,
-                evaluation_node: self.cost.evaluation_node,
-                bone_sampled: self.cost.bone_sampled,
-                bone_concatenated: self.cost.bone_concatenated,
-                character: self.cost.character,
-            },
+            cost: self.cost.to_model(),
             ..WorldBudget::default()
         };
         budget.validate().map_err(world_error)?;
@@ -495,7 +516,27 @@ mod tests {
     #[test]
     fn default_budget_desc_is_the_rust_default() {
         let d = slod_default_world_budget_desc();
-        assert_eq!(d.to_budget(false).unwrap(), WorldBudget::default());
+        let back = d.to_budget(false).unwrap();
+        let rust = WorldBudget::default();
+        // The cloth's costs cross as nanoseconds: equal up to the rounding of × 1e9 / 1e9.
+        let (a, b) = (back.cost.cloth, rust.cost.cloth);
+        for (x, y) in [
+            (a.fixed, b.fixed),
+            (a.link_iteration, b.link_iteration),
+            (a.node_substep, b.node_substep),
+            (a.transition, b.transition),
+            (a.evaluated_node, b.evaluated_node),
+        ] {
+            assert!((x - y).abs() <= 1e-12 * y.abs(), "{x} vs {y}");
+        }
+        let cost = WorldBudget {
+            cost: crate::world::CostModel {
+                cloth: b,
+                ..back.cost
+            },
+            ..back
+        };
+        assert_eq!(cost, rust);
     }
 
     #[test]

@@ -35,6 +35,16 @@ pub struct FrameCost {
     pub ms: f64,
 }
 
+/// A target in ms converted to cost units at the window's measured ms per unit (targets in
+/// units pass through).
+fn target_units(target: f64, in_ms: bool, window_ms: f64, window_units: f64) -> f64 {
+    if in_ms && window_ms > 0.0 {
+        target * window_units / window_ms
+    } else {
+        target
+    }
+}
+
 /// Holds a target frame cost by moving the world's error bound.
 #[derive(Clone, Debug)]
 pub struct ErrorBoundController {
@@ -52,7 +62,7 @@ pub struct ErrorBoundController {
 
 /// Range the elasticity estimate is kept in: a plant that barely answers still gets steps of
 /// at most `max_change`, and a noisy secant cannot reverse the step's sign.
-const ELASTICITY_RANGE: (f64, f64) = (0.15, 2.0);
+const ELASTICITY_RANGE: (f64, f64) = (0.5, 1.0);
 
 impl ErrorBoundController {
     /// A controller starting from `settings.initial_error_px`, clamped to the bound's range.
@@ -117,6 +127,13 @@ impl ErrorBoundController {
         }
         let frames = self.window_frames as f64;
         let mut estimate = cost.committed_units + self.window_fluctuating / frames;
+        // The projection can fall short (errors grow as a cold cloth starts to move, so the cut
+        // keeps refining past what an evaluation projected): a window that already spent more
+        // than the target says so, and wins.
+        let spent = self.window_units / frames;
+        if spent > target_units(target, in_ms, self.window_ms, self.window_units) {
+            estimate = estimate.max(spent);
+        }
         if in_ms {
             if self.window_units <= 0.0 {
                 estimate = self.window_ms / frames;

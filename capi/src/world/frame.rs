@@ -154,6 +154,9 @@ pub struct FrameBudgeter {
     pool: Option<rayon::ThreadPool>,
     objects: BTreeMap<ObjectKey, ObjectState>,
     frames: u64,
+    /// Measured wall milliseconds per cost unit, smoothed over frames (to turn a millisecond
+    /// target into units for the transition allowance).
+    ms_per_unit: Option<f64>,
     last: WorldStepStats,
     last_objects: Vec<ObjectFrame>,
 }
@@ -168,6 +171,7 @@ impl FrameBudgeter {
             settings,
             objects: BTreeMap::new(),
             frames: 0,
+            ms_per_unit: None,
             last: WorldStepStats::default(),
             last_objects: Vec::new(),
         })
@@ -383,21 +387,31 @@ impl FrameBudgeter {
                 steps,
                 bound: bound.unwrap_or(0.0),
                 share,
-                outcome: Ok((0, 0)),
+                outcome: Ok(StepCost::default()),
             });
         }
         if (self.frames - 1).is_multiple_of(self.settings.update_frames as u64) {
             self.balance_phases(&mut jobs);
         }
+        if let Err(e) = self.cap_transitions(&mut jobs) {
+            frame.fail(e);
+        }
+        let model = self.settings.cost.cloth;
         let run = |job: &mut ClothJob<'a>| {
-            let before = job.cloth.stats().evaluations;
-            let mut taken = 0;
+            let mut work = StepCost::default();
             job.outcome = (|| {
                 for _ in 0..job.steps {
                     job.cloth.step(view)?;
-                    taken += 1;
+                    let w = job.cloth.stats().last_work;
+                    let all = model.seconds(&w) * 1e9;
+                    let evaluation = model.evaluation_seconds(&w) * 1e9;
+                    let transitions = model.transition * w.transitions as f64 * 1e9;
+                    work.steps += 1;
+                    work.evaluations += (w.evaluated_nodes > 0) as u64;
+                    work.units += all;
+                    work.settled_units += all - evaluation - transitions;
                 }
-                Ok((taken, job.cloth.stats().evaluations - before))
+                Ok(work)
             })();
         };
         if self.serial() || jobs.len() < 2 {
@@ -405,34 +419,28 @@ impl FrameBudgeter {
         } else {
             self.install(|| jobs.par_iter_mut().for_each(run));
         }
-        let cost = self.settings.cost;
         for job in jobs {
-            let (steps, evaluations) = match job.outcome {
-                Ok(v) => v,
+            let work = match job.outcome {
+                Ok(w) => w,
                 Err(e) => {
                     frame.fail(e);
-                    (0, 0)
+                    StepCost::default()
                 }
             };
             let c = &*job.cloth;
-            let solver = c.body().settings().solver;
             let nodes = c.node_count() as f64;
-            let per_step = c.link_count() as f64
-                * (solver.substeps * solver.iterations) as f64
-                * cost.link_iteration as f64
-                + nodes * solver.substeps as f64 * cost.node_substep as f64;
-            let evaluation_units = evaluations as f64 * nodes * cost.evaluation_node as f64;
-            let units = per_step * steps as f64 + evaluation_units;
-            // What a step will cost once the cut reaches the node count the last evaluation
-            // chose (see `FrameCost`).
+            let units = work.units;
+            // What the settled part of a step will cost once the cut reaches the node count the
+            // last evaluation chose (see `FrameCost`); evaluations and transitions fluctuate.
             let chosen = c.stats().projected_nodes;
             let committed = if c.feedback().is_some() && chosen > 0 && nodes > 0.0 {
-                per_step * (chosen as f64 / nodes).min(full_ratio(c))
+                work.settled_units * (chosen as f64 / nodes).min(full_ratio(c))
             } else {
-                per_step
+                work.settled_units
             };
-            frame.committed_units += committed * steps as f64;
-            frame.fluctuating_units += evaluation_units;
+            frame.committed_units += committed;
+            frame.fluctuating_units += units - work.settled_units;
+            let (steps, evaluations) = (work.steps, work.evaluations);
             let full = c.hierarchy().vertex_count() as u64;
             frame.stats.cloths += 1;
             frame.stats.cloth_steps += steps;
@@ -470,6 +478,10 @@ impl FrameBudgeter {
             )),
             BudgetTarget::CostUnits(u) => Some((frame.stats.cost_units, u)),
         };
+        if frame.stats.cost_units > 0.0 {
+            let r = frame.stats.wall_ms / frame.stats.cost_units;
+            self.ms_per_unit = Some(self.ms_per_unit.map_or(r, |m| m + 0.1 * (r - m)));
+        }
         if let Some((cost, target)) = measured {
             frame.stats.measured = cost;
             let ms = match self.settings.clock {
@@ -504,7 +516,18 @@ struct ClothJob<'a> {
     steps: u32,
     bound: f32,
     share: BudgetShare,
-    outcome: Result<(u32, u64), crate::cloth::ClothError>,
+    outcome: Result<StepCost, crate::cloth::ClothError>,
+}
+
+/// What a cloth's steps of one frame cost, in cost units.
+#[derive(Clone, Copy, Debug, Default)]
+struct StepCost {
+    steps: u32,
+    evaluations: u64,
+    /// Everything.
+    units: f64,
+    /// Without the evaluations and the transitions in flight.
+    settled_units: f64,
 }
 
 /// Puts a cloth's feedback budget where its share says: the world's bound (in place, keeping
@@ -533,6 +556,64 @@ fn apply_cloth_share(
 }
 
 impl FrameBudgeter {
+    /// The frame target in cost units (a millisecond target converted at the measured ms per
+    /// unit, or through the modelled clock), or `None` without a budget or a measurement yet.
+    fn target_units(&self) -> Option<f64> {
+        match (self.settings.target, self.settings.clock) {
+            (BudgetTarget::None, _) => None,
+            (BudgetTarget::CostUnits(u), _) => Some(u),
+            (BudgetTarget::Milliseconds(ms), FrameClock::Modelled { ns_per_unit }) => {
+                Some(ms as f64 * 1e6 / ns_per_unit)
+            }
+            (BudgetTarget::Milliseconds(ms), FrameClock::Wall) => {
+                self.ms_per_unit.map(|r| ms as f64 / r)
+            }
+        }
+    }
+
+    /// Caps the operations the cloths due to evaluate this frame may begin, so that the
+    /// transitions in flight stay within `transition_share` of the target plus what the last
+    /// frame left unspent: what is left of that allowance after the transitions already
+    /// blending, shared equally (at least one operation
+    /// each, at most the default `max_ops` of [`FeedbackSettings`]).
+    /// Cloths that keep their own budget, and worlds without one, are left alone.
+    fn cap_transitions(&self, jobs: &mut [ClothJob<'_>]) -> Result<(), WorldError> {
+        let (Some(target), share) = (self.target_units(), self.settings.transition_share) else {
+            return Ok(());
+        };
+        let per_transition = self.settings.cost.cloth.transition * 1e9;
+        if share <= 0.0 || per_transition <= 0.0 {
+            return Ok(());
+        }
+        let shared = |j: &ClothJob<'_>| matches!(j.share, BudgetShare::Shared { .. });
+        let in_flight: usize = jobs.iter().map(|j| j.cloth.interpolations()).sum();
+        // Unspent budget is room too: a cut far under its target may move fast.
+        let headroom = (target - self.last.cost_units).max(0.0);
+        let allowed = (share as f64 * target + headroom) / per_transition;
+        let room = (allowed - in_flight as f64).max(0.0);
+        let due = jobs
+            .iter()
+            .filter(|j| shared(j) && j.cloth.evaluation_due())
+            .count();
+        if due == 0 {
+            return Ok(());
+        }
+        let default_ops = FeedbackSettings::default().max_ops;
+        let each = ((room / due as f64).floor() as usize).clamp(1, default_ops);
+        for j in jobs
+            .iter_mut()
+            .filter(|j| shared(j) && j.cloth.evaluation_due())
+        {
+            if let Some(&f) = j.cloth.feedback()
+                && f.max_ops != each
+            {
+                j.cloth
+                    .set_feedback(Some(FeedbackSettings { max_ops: each, ..f }))?;
+            }
+        }
+        Ok(())
+    }
+
     /// Spreads the cloths' feedback evaluations over the phases of the interval so that every
     /// frame evaluates about as many nodes: an evaluation costs about as much as a step, and
     /// all cloths evaluating on the same frame make every k-th frame twice as long. Largest

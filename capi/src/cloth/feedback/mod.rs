@@ -153,7 +153,7 @@ impl Feedback {
     /// would count as flicker. Under [`ClothBudget::MaxErrorPx`] such a node keeps its level
     /// for the undo window (a minimum residency, as engines' LOD systems keep a level for a
     /// minimum time) unless the error really asks: a just-refined node is not merged back, and
-    /// a just-coarsened one is refined again only above twice the bound (not half of it), so a
+    /// a just-coarsened one is refined again only above four times the bound (not half of it), so a
     /// bound that moves does not undo what it just asked for.
     pub(crate) fn measure(
         &mut self,
@@ -350,13 +350,13 @@ impl Feedback {
         for (i, &node) in nodes.iter().enumerate() {
             let px = self.deviation.particle_px[i];
             if cut.is_on_cut(node) {
-                // A just-coarsened node competes at a quarter of its estimate: refined again
-                // only above twice the bound. Its first estimates after the merge run high (the
-                // merged node is still settling into its neighbours' motion), and refined again
-                // at half the bound, 1–2% of a world budget's operations were undone within 30
-                // steps.
-                let px = if px <= 2.0 * bound && recent(node) == Recent::Coarsened {
-                    px * 0.25
+                // A just-coarsened node competes at an eighth of its estimate: refined again
+                // only above four times the bound. Its first estimates after the merge run high
+                // (the merged node is still settling into its neighbours' motion), and refined
+                // again at half the bound, 1–2% of a world budget's operations were undone
+                // within 30 steps (still 1.1% at twice the bound).
+                let px = if px <= 4.0 * bound && recent(node) == Recent::Coarsened {
+                    px * 0.125
                 } else {
                     px
                 };
