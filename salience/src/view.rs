@@ -269,12 +269,22 @@ impl View {
     }
 
     /// Pixels covered by one world unit at `point`, laid parallel to the image plane:
-    /// `focal_px / depth`. Depths nearer than the near plane (and points behind the eye) count
-    /// as the near plane, so the value is finite and positive for every point; whether the
-    /// point is seen at all is [`View::is_in_view`]'s question.
+    /// `focal_px / depth`. A point nearer than the near plane (beside or behind the eye) counts
+    /// at its distance from the eye (at least the near plane): what it would cover if the camera
+    /// turned to face it. Clamping its depth to the near plane instead gave everything behind
+    /// the camera the largest scale of all (11,600 px/m on a 1080-px, 50° view at 10 cm), and
+    /// a world budget spent most of its nodes on cloths the camera had passed. The value is
+    /// finite and positive for every point; whether the point is seen at all is
+    /// [`View::is_in_view`]'s question.
     #[inline]
     pub fn pixels_per_unit(&self, point: Vec3) -> f32 {
-        self.focal_px / self.depth(point).max(self.near)
+        let depth = self.depth(point);
+        let seen_at = if depth >= self.near {
+            depth
+        } else {
+            self.distance(point).max(self.near)
+        };
+        self.focal_px / seen_at
     }
 
     /// Whether any part of a sphere of `radius` (negative counts as 0) centred at `centre` lies
@@ -458,6 +468,10 @@ mod tests {
         assert!((c.pixels_per_unit(p) - 30.0).abs() < 1e-4);
         // Off axis the depth, not the distance, sets the scale.
         assert!((c.pixels_per_unit(Vec3::new(3.0, 0.0, -10.0)) - 30.0).abs() < 1e-4);
+        // Behind the eye the distance does: 10 m behind is as small as 10 m ahead, not as
+        // large as the near plane.
+        assert!((c.pixels_per_unit(Vec3::new(0.0, 0.0, 10.0)) - 30.0).abs() < 1e-4);
+        assert!((c.pixels_per_unit(Vec3::new(6.0, 0.0, 8.0)) - 30.0).abs() < 1e-4);
         assert!((c.distance(p) - 10.0).abs() < 1e-6);
         assert!((c.depth(p) - 10.0).abs() < 1e-6);
         assert!((c.projected_radius_px(p, 0.5) - 15.0).abs() < 1e-3);
