@@ -495,8 +495,8 @@ pub struct WorldFrame {
 /// How a trace settles on its target.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Settle {
-    /// The first frame from which at least 95% of frames are within ±10% of the target (with at
-    /// least [`SETTLE_TAIL`] frames, or half the run, still to come); `None` if none.
+    /// The first frame within ±10% of the target from which at least 95% of frames are within
+    /// (with at least [`SETTLE_TAIL`] frames, or half the run, still to come); `None` if none.
     pub settled_after: Option<usize>,
     /// Fraction of frames within ±10% from the settle frame on (over the whole run if never).
     pub within_fraction: f64,
@@ -519,7 +519,7 @@ pub fn settle(measured: &[f64], target: f64) -> Settle {
         after[f] = after[f + 1] + within[f] as usize;
     }
     let fraction = |f: usize| after[f] as f64 / (n - f) as f64;
-    let settled_after = (0..=n - tail).find(|&f| fraction(f) >= 0.95);
+    let settled_after = (0..=n - tail).find(|&f| within[f] && fraction(f) >= 0.95);
     Settle {
         settled_after,
         within_fraction: fraction(settled_after.unwrap_or(0)),
@@ -578,6 +578,8 @@ pub struct BudgetedRun {
     pub near_detail_fraction: Option<f64>,
     /// Mean detail fraction of in-view cloths farther than 30 m, over frames.
     pub far_detail_fraction: Option<f64>,
+    /// Cost units of cloths whose centre was out of view over all cloths' units.
+    pub out_of_view_units_fraction: f64,
 }
 
 /// Records one frame of `scene` after its step.
@@ -645,8 +647,24 @@ fn summarise(scene: &Scene, target: f64, frames: Vec<WorldFrame>) -> BudgetedRun
                 .collect::<Vec<_>>()
         }))
     };
+    let (mut unseen, mut cloth_units) = (0.0, 0.0);
+    for f in &frames {
+        for (o, w) in f.objects.iter().zip(&scene.objects) {
+            if w.kind != "crowd" {
+                cloth_units += o.units;
+                if !o.in_view {
+                    unseen += o.units;
+                }
+            }
+        }
+    }
     BudgetedRun {
         target,
+        out_of_view_units_fraction: if cloth_units > 0.0 {
+            unseen / cloth_units
+        } else {
+            0.0
+        },
         settle: settle(&measured, target),
         p50_ms: quantile(&wall, 0.5),
         p99_ms: quantile(&wall, 0.99),
@@ -816,7 +834,11 @@ pub fn run_world(
         let stats = lod.world.step(DT, &view)?;
         trace.push(sample(&lod, &stats, &view));
 
-        let threads = if (f / block) % 2 == 0 { 1 } else { parallel };
+        let threads = if (f / block).is_multiple_of(2) {
+            1
+        } else {
+            parallel
+        };
         if reference.world.budget().settings().threads != threads {
             reference
                 .world
@@ -825,7 +847,7 @@ pub fn run_world(
         let r = reference.world.step(DT, &view)?;
         units.push(r.cost_units);
         // The first frame of a block pays for the new pool's start.
-        if f % block != 0 {
+        if !f.is_multiple_of(block) {
             if threads == 1 { &mut serial } else { &mut par }.push(r.wall_ms);
         }
         meter.set_view(view);
@@ -839,7 +861,7 @@ pub fn run_world(
             twin_meter.frame(&c, &b);
         }
         if let Some(k) = crowd_key
-            && f % config.crowd_error_every.max(1) == 0
+            && f.is_multiple_of(config.crowd_error_every.max(1))
         {
             let crowd = lod.world.crowd(k).expect("the crowd");
             crowd.accumulate_pose_error(&view, &mut crowd_error);
@@ -985,6 +1007,10 @@ pub fn format_table(report: &WorldReport) -> String {
             opt(b.near_detail_fraction, 3),
             opt(b.far_detail_fraction, 3)
         ),
+    ]);
+    s.row([
+        "cloth units spent out of view".to_string(),
+        format!("{:.1}%", 100.0 * b.out_of_view_units_fraction),
     ]);
     text.push('\n');
     text.push_str(&s.render());
