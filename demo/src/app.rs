@@ -15,8 +15,9 @@ use crate::paper::{TABLE1, TABLE2_TCSB, THESIS};
 use crate::perception::{self, PerceptionOutcome, PerceptionPlan};
 use crate::progress::Progress;
 use crate::report::{self, Report, SCHEMA, Seconds};
+use crate::world::{self, WorldOutcome, WorldPlan};
 use crate::{plots, render};
-use slod_experiments::table::{Table, num, pct};
+use slod_experiments::table::{Table, num, opt, pct};
 
 /// Runs the demo for `args` (without the program name), printing tables to `out` and errors
 /// to `err`; returns the process exit status: 0, [`EXIT_USAGE`] for a bad command line (the
@@ -95,6 +96,10 @@ fn run(
         .section
         .perception()
         .then(|| PerceptionPlan::new(options.quick));
+    let world_plan = options
+        .section
+        .world()
+        .then(|| WorldPlan::new(options.world.frames, options.world.target_ms, options.quick));
 
     let mut seconds = Seconds::default();
     let mut files: Vec<PathBuf> = Vec::new();
@@ -168,6 +173,24 @@ fn run(
         perception_outcome = Some(outcome);
     }
 
+    let mut world_outcome: Option<WorldOutcome> = None;
+    if let Some(plan) = &world_plan {
+        say(
+            out,
+            &format!(
+                "== World budget (issue 15): 16 cloths and {} characters, a flying camera, {} ms per frame ==\n",
+                plan.config.characters, plan.config.target_ms
+            ),
+        );
+        let outcome = world::run(plan, progress)?;
+        seconds.world = outcome.section.seconds;
+        say(out, &outcome.text);
+        let t = Instant::now();
+        files.extend(world::plots(&outcome, dir)?);
+        seconds.pictures += t.elapsed().as_secs_f64();
+        world_outcome = Some(outcome);
+    }
+
     let report_path = dir.join("report.json");
     let names: Vec<String> = files
         .iter()
@@ -185,6 +208,7 @@ fn run(
         crowd: crowd_outcome.as_ref().map(|o| &o.section),
         engine: engine_outcome.as_ref().map(|o| &o.section),
         perception: perception_outcome.as_ref().map(|o| &o.section),
+        world: world_outcome.as_ref().map(|o| &o.section),
         files: names.clone(),
         seconds: seconds.clone(),
     };
@@ -409,6 +433,29 @@ fn summary(report: &Report<'_>, dir: &Path, files: &[String], total_s: f64) -> S
                 "5-9x faster than non-adaptive (Koh et al. 2014)".to_string(),
             ]);
         }
+    }
+    if let Some(w) = report.world {
+        t.row([
+            format!(
+                "world: {} objects, {} ms per frame",
+                w.objects,
+                num(w.target_ms as f64, 1)
+            ),
+            format!(
+                "p50 {} / p99 {} ms, {}, {} within 10%, {} undone, speedup {}, screen RMS {} px",
+                num(w.p50_ms, 2),
+                num(w.p99_ms, 2),
+                w.settled_after_frames
+                    .map_or("never settled".into(), |f| format!(
+                        "settled after frame {f}"
+                    )),
+                pct(w.within_10pct_fraction, 1),
+                pct(w.undone_fraction, 2),
+                opt(w.parallel_speedup, 2),
+                opt(w.screen_rms_px, 2)
+            ),
+            "APEX / Unreal budget practice; the paper's \"maximal computation time\"".to_string(),
+        ]);
     }
     t.row([
         "written".to_string(),

@@ -34,14 +34,16 @@ const USAGE: &str = "\
 slod-demo: simulation and animation level of detail, measured beside the papers
 
 USAGE:
-    slod-demo [OPTIONS]              everything: the net, the crowd, the engine scenes, then
-                                     perception (about a minute and a half)
+    slod-demo [OPTIONS]              everything: the net, the crowd, the engine scenes,
+                                     perception, then the world (about a minute and a half)
     slod-demo net [OPTIONS]          the swinging net only (simulation paper, section 6)
     slod-demo crowd [OPTIONS]        the crowd only (bone-priority thesis, chapter 13)
     slod-demo engine [OPTIONS]       the engine scenes only: colliders, wind, a cape on a walking
                                      character; reference and LOD at 30% of the nodes
     slod-demo perception [OPTIONS]   perception only: every strategy on every scene family,
                                      on-screen error in pixels (about a minute)
+    slod-demo world [OPTIONS]        the world budget only: 16 cloths and a 1,000-character
+                                     crowd, a flying camera, one budget per frame (about 20 s)
 
 OPTIONS:
     --out DIR             where report.json, pictures and plots go [default: out]
@@ -55,6 +57,11 @@ NET OPTIONS (net, or everything):
                           comma-separated, each in (0, 1], `%` allowed [default: 1,0.75,0.3]
     --target-ms MS        the time-budget run holds MS milliseconds per step
                           [default: half the measured full-resolution step time]
+
+WORLD OPTIONS (world, or everything):
+    --frames N            frames of the budgeted run [default: 300]
+    --target-ms MS        with `world`: the frame budget in milliseconds [default: 4]
+                          (in the whole run --target-ms is the net's; the world keeps 4 ms)
 
 CROWD OPTIONS (crowd, or everything):
     --gltf PATH           a .glb/.gltf rig with a skin and an animation
@@ -70,6 +77,7 @@ EXAMPLES:
     cargo run --release -p slod-demo -- net --size 129 --compression 50%,25%
     cargo run --release -p slod-demo -- crowd --characters 400 --budget 20000 --out runs/budget
     cargo run --release -p slod-demo -- perception --quick
+    cargo run --release -p slod-demo -- world --frames 600 --target-ms 4
 ";
 
 /// Which experiments run.
@@ -85,6 +93,8 @@ pub(crate) enum Section {
     Engine,
     /// The perception scenes only.
     Perception,
+    /// The world budget only.
+    World,
 }
 
 impl Section {
@@ -96,6 +106,7 @@ impl Section {
             Section::Crowd => "crowd",
             Section::Engine => "engine",
             Section::Perception => "perception",
+            Section::World => "world",
         }
     }
 
@@ -117,6 +128,11 @@ impl Section {
     /// Whether the perception scenes run.
     pub(crate) fn perception(self) -> bool {
         matches!(self, Section::All | Section::Perception)
+    }
+
+    /// Whether the world budget runs.
+    pub(crate) fn world(self) -> bool {
+        matches!(self, Section::All | Section::World)
     }
 }
 
@@ -160,6 +176,15 @@ pub(crate) struct CrowdOptions {
     pub(crate) lod: Option<CrowdLod>,
 }
 
+/// The user's choices for the world budget; `None` means the default.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct WorldOptions {
+    /// Frames of the budgeted run.
+    pub(crate) frames: Option<u32>,
+    /// The frame budget, ms (only with the `world` command).
+    pub(crate) target_ms: Option<f32>,
+}
+
 /// A parsed command line.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Options {
@@ -173,6 +198,8 @@ pub(crate) struct Options {
     pub(crate) net: NetOptions,
     /// Crowd choices.
     pub(crate) crowd: CrowdOptions,
+    /// World choices.
+    pub(crate) world: WorldOptions,
 }
 
 /// What the command line asks for.
@@ -256,6 +283,13 @@ struct Cli {
     /// MIN,MAX, e.g. 200,1700
     #[arg(long, allow_negative_numbers = true, value_parser = range, conflicts_with = "budget")]
     range: Option<CrowdLod>,
+    /// frames of the world run, e.g. 600
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_parser = whole::<u32>("--frames", 1, 100_000),
+    )]
+    frames: Option<u32>,
     /// bone interpolations per frame, e.g. 5000
     #[arg(
         long,
@@ -319,6 +353,22 @@ pub(crate) fn parse(args: &[String]) -> Result<Parsed, DemoError> {
             "`{o}` is a net option; the `crowd` command does not run the net"
         )));
     }
+    if let (Section::Net | Section::Crowd | Section::Engine | Section::Perception, Some(_)) =
+        (section, cli.frames)
+    {
+        return Err(usage_error(format!(
+            "`--frames` is a world option; the `{}` command does not run the world",
+            section.name()
+        )));
+    }
+    if section == Section::World
+        && let Some(o) =
+            last_given(&matches, &NET_OPTIONS[..3]).or_else(|| last_given(&matches, &CROWD_OPTIONS))
+    {
+        return Err(usage_error(format!(
+            "`{o}` is a net or crowd option; the `world` command runs neither"
+        )));
+    }
     if matches!(section, Section::Engine | Section::Perception)
         && let Some(o) =
             last_given(&matches, &NET_OPTIONS).or_else(|| last_given(&matches, &CROWD_OPTIONS))
@@ -352,13 +402,17 @@ pub(crate) fn parse(args: &[String]) -> Result<Parsed, DemoError> {
             size: cli.size,
             steps: cli.steps,
             compressions: cli.compression.map(|c| c.0),
-            target_ms: cli.target_ms,
+            target_ms: cli.target_ms.filter(|_| section != Section::World),
         },
         crowd: CrowdOptions {
             gltf: cli.gltf,
             clip: cli.clip,
             characters: cli.characters,
             lod: cli.range.or(cli.budget.map(CrowdLod::Budget)),
+        },
+        world: WorldOptions {
+            frames: cli.frames,
+            target_ms: cli.target_ms.filter(|_| section == Section::World),
         },
     }))
 }
@@ -416,11 +470,12 @@ fn word(v: &str) -> Result<Word, String> {
         "crowd" => Word::Run(Section::Crowd),
         "engine" => Word::Run(Section::Engine),
         "perception" => Word::Run(Section::Perception),
+        "world" => Word::Run(Section::World),
         "all" => Word::Run(Section::All),
         "help" => Word::Help,
         _ => {
             return Err(format!(
-                "unknown command `{v}` (expected `net`, `crowd`, `engine`, `perception` or none)"
+                "unknown command `{v}` (expected `net`, `crowd`, `engine`, `perception`, `world` or none)"
             ));
         }
     })
@@ -548,6 +603,24 @@ mod tests {
         assert_eq!(run("--quick crowd").section, Section::Crowd);
         assert!(run("crowd --quick").quick);
         assert_eq!(parse(&args("net --help")).unwrap(), Parsed::Help);
+        assert_eq!(run("world").section, Section::World);
+    }
+
+    #[test]
+    fn world_options() {
+        let o = run("world --frames 600 --target-ms 3.5");
+        assert_eq!(o.world.frames, Some(600));
+        assert_eq!(o.world.target_ms, Some(3.5));
+        assert_eq!(o.net.target_ms, None);
+        // In the whole run --target-ms stays the net's.
+        let o = run("--frames 90 --target-ms 0.4");
+        assert_eq!((o.world.frames, o.world.target_ms), (Some(90), None));
+        assert_eq!(o.net.target_ms, Some(0.4));
+        assert!(error("world --size 9").contains("world"));
+        assert!(error("world --characters 9").contains("world"));
+        assert!(error("net --frames 9").contains("world option"));
+        assert!(error("world --frames 0").contains("1..=100000"));
+        assert!(error("world --target-ms 0").contains("positive"));
     }
 
     #[test]

@@ -79,7 +79,7 @@ pub(crate) struct EngineOutcome {
     pub(crate) text: String,
 }
 
-fn assets_dir() -> PathBuf {
+pub(crate) fn assets_dir() -> PathBuf {
     let in_tree = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/gltf");
     if in_tree.is_dir() {
         in_tree

@@ -3,8 +3,8 @@
 //! papers' own figures, with pictures of the net, plots and a machine-readable `report.json`.
 //!
 //! The binary is a thin wrapper over [`run_cli`], so the tests run exactly what a user runs.
-//! Modules, in the order a run uses them: `cli` (arguments), `net`, `crowd` and `perception`
-//! (the experiments), `render` and `plots` (pictures), `report` (JSON) and
+//! Modules, in the order a run uses them: `cli` (arguments), `net`, `crowd`, `engine`, `perception` and
+//! `world` (the experiments), `render` and `plots` (pictures), `report` (JSON) and
 //! `app` (the sequence and the summary).
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -25,6 +25,7 @@ mod plots;
 mod progress;
 mod render;
 mod report;
+mod world;
 
 pub use app::run_cli;
 pub use cli::{EXIT_FAILURE, EXIT_USAGE, usage};

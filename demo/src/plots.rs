@@ -16,6 +16,7 @@ use crate::font;
 use crate::net::NetSection;
 use crate::paper::{TABLE2_BULLET, TABLE2_TCSB, THESIS};
 use crate::perception::PerceptionSection;
+use slod_experiments::world::WorldReport;
 
 const SIZE: (u32, u32) = (1100, 720);
 
@@ -615,6 +616,223 @@ pub(crate) fn perception_error_cost(
                     .draw_series(std::iter::once(Circle::new(p, 6, col.filled())))
                     .map_err(err)?;
             }
+        }
+        Ok(())
+    })
+}
+
+/// A chart with frames along x from 0 to `frames` and `y_desc` from `y.0` to `y.1`.
+fn frames_chart<'a, 'b>(
+    area: &'a Area<'b>,
+    caption: &str,
+    frames: usize,
+    y: (f64, f64),
+    y_desc: &str,
+) -> Result<NodesChart<'a, 'b>, String> {
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, (font::FAMILY, 22))
+        .margin(14)
+        .x_label_area_size(44)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..frames.max(1) as f64, y.0..y.1)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("frame (60 per second)")
+        .x_label_formatter(&|x| format!("{x:.0}"))
+        .y_desc(y_desc)
+        .label_style((font::FAMILY, 15))
+        .axis_desc_style((font::FAMILY, 17))
+        .draw()
+        .map_err(err)?;
+    Ok(chart)
+}
+
+/// The world budget over the run: `world_frame_time.png` (above: each frame's wall time
+/// against the target and its ±10% band, with the settle frame; below: the shared on-screen
+/// error bound the controller set).
+pub(crate) fn world_frame_time(report: &WorldReport, dir: &Path) -> Result<PathBuf, DemoError> {
+    let path = dir.join("world_frame_time.png");
+    let b = &report.budgeted;
+    let n = b.frames.len();
+    let target = b.target;
+    let max_ms = b
+        .frames
+        .iter()
+        .map(|f| f.wall_ms)
+        .fold(target * 1.3, f64::max)
+        .min(target * 4.0);
+    let max_bound = b
+        .frames
+        .iter()
+        .map(|f| f.bound_px as f64)
+        .fold(1e-3, f64::max);
+    plot(&path, |area| {
+        let (top, bottom) = area.split_vertically(SIZE.1 * 3 / 5);
+        let mut ms = frames_chart(
+            &top,
+            &format!(
+                "World frame time against a {target:.1} ms budget ({} objects, {} threads)",
+                report.objects.len(),
+                b.threads
+            ),
+            n,
+            (0.0, max_ms),
+            "ms per frame",
+        )?;
+        let band = RGBColor(0, 158, 115).mix(0.18);
+        ms.draw_series(std::iter::once(Rectangle::new(
+            [(0.0, 0.9 * target), (n as f64, 1.1 * target)],
+            band.filled(),
+        )))
+        .map_err(err)?
+        .label("target ±10%")
+        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], band.filled()));
+        ms.draw_series(LineSeries::new(
+            [(0.0, target), (n as f64, target)],
+            BLACK.stroke_width(2),
+        ))
+        .map_err(err)?
+        .label("target")
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+        let col = colour(0);
+        ms.draw_series(LineSeries::new(
+            b.frames
+                .iter()
+                .enumerate()
+                .map(|(i, f)| (i as f64, f.wall_ms.min(max_ms))),
+            col.stroke_width(1),
+        ))
+        .map_err(err)?
+        .label("frame time (clipped at the top)")
+        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], col.stroke_width(2)));
+        if let Some(s) = b.settle.settled_after {
+            let red = colour(1);
+            ms.draw_series(LineSeries::new(
+                [(s as f64, 0.0), (s as f64, max_ms)],
+                red.stroke_width(2),
+            ))
+            .map_err(err)?
+            .label(format!("settled after frame {s}"))
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], red.stroke_width(2)));
+        }
+        upper_right_legend(&mut ms)?;
+        let mut px = frames_chart(
+            &bottom,
+            "The shared on-screen error bound",
+            n,
+            (0.0, max_bound * 1.1),
+            "bound, px",
+        )?;
+        px.draw_series(LineSeries::new(
+            b.frames
+                .iter()
+                .enumerate()
+                .map(|(i, f)| (i as f64, f.bound_px as f64)),
+            colour(2).stroke_width(2),
+        ))
+        .map_err(err)?;
+        Ok(())
+    })
+}
+
+/// How the budget was spent: `world_budget_per_object.png` (cost units of each object per
+/// frame, stacked, nearest cloth at the bottom and the crowd on top; colour by kind), beside
+/// each object's detail fraction over the frames.
+pub(crate) fn world_budget_per_object(
+    report: &WorldReport,
+    dir: &Path,
+) -> Result<PathBuf, DemoError> {
+    let path = dir.join("world_budget_per_object.png");
+    let b = &report.budgeted;
+    let n = b.frames.len();
+    // Nearest first along the street, the crowd last.
+    let mut order: Vec<usize> = (0..report.objects.len()).collect();
+    order.sort_by(|&i, &j| {
+        let key = |k: usize| {
+            let o = &report.objects[k];
+            (o.kind == "crowd", o.along_m)
+        };
+        key(i)
+            .partial_cmp(&key(j))
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    let kind_colour = |kind: &str| match kind {
+        "flag" => colour(0),
+        "curtain" => colour(1),
+        "cape" => colour(2),
+        _ => colour(7),
+    };
+    let max_units = b
+        .frames
+        .iter()
+        .map(|f| f.objects.iter().map(|o| o.units).sum::<f64>())
+        .fold(1.0, f64::max);
+    plot_sized(&path, (1400, 720), |area| {
+        let area = area
+            .titled(
+                "How the world budget was spent per object (millisecond run)",
+                (font::FAMILY, 24),
+            )
+            .map_err(err)?;
+        let (left, right) = area.split_horizontally(760);
+        let mut units = frames_chart(
+            &left,
+            "Cost units per frame, stacked (nearest at the bottom)",
+            n,
+            (0.0, max_units * 1.05),
+            "cost units",
+        )?;
+        let mut below = vec![0.0f64; n];
+        let mut labelled = Vec::new();
+        for (rank, &k) in order.iter().enumerate() {
+            let o = &report.objects[k];
+            let shade = if rank % 2 == 0 { 1.0 } else { 0.55 };
+            let c = kind_colour(o.kind).mix(shade);
+            let above: Vec<f64> = below
+                .iter()
+                .zip(&b.frames)
+                .map(|(y, f)| y + f.objects[k].units)
+                .collect();
+            let polygon: Vec<(f64, f64)> = above
+                .iter()
+                .enumerate()
+                .map(|(i, &y)| (i as f64, y))
+                .chain(below.iter().enumerate().rev().map(|(i, &y)| (i as f64, y)))
+                .collect();
+            let drawn = units
+                .draw_series(std::iter::once(Polygon::new(polygon, c.filled())))
+                .map_err(err)?;
+            if !labelled.contains(&o.kind) {
+                labelled.push(o.kind);
+                let solid = kind_colour(o.kind);
+                drawn.label(format!("{}s", o.kind)).legend(move |(x, y)| {
+                    Rectangle::new([(x, y - 5), (x + 20, y + 5)], solid.filled())
+                });
+            }
+            below = above;
+        }
+        upper_right_legend(&mut units)?;
+        let mut detail = frames_chart(
+            &right,
+            "Detail of each object (nodes or bones over full)",
+            n,
+            (0.0, 1.02),
+            "fraction of full detail",
+        )?;
+        for &k in &order {
+            let o = &report.objects[k];
+            let c = kind_colour(o.kind);
+            let width = if o.kind == "crowd" { 3 } else { 1 };
+            detail
+                .draw_series(LineSeries::new(
+                    b.frames
+                        .iter()
+                        .enumerate()
+                        .map(|(i, f)| (i as f64, f.objects[k].detail_fraction)),
+                    c.stroke_width(width),
+                ))
+                .map_err(err)?;
         }
         Ok(())
     })

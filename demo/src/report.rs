@@ -12,6 +12,7 @@ use crate::error::DemoError;
 use crate::machine::Machine;
 use crate::net::NetSection;
 use crate::perception::PerceptionSection;
+use crate::world::WorldSection;
 
 /// Version of the report's layout; bumped when a field changes meaning or disappears.
 pub(crate) const SCHEMA: &str = "slod-demo-report/2";
@@ -27,6 +28,8 @@ pub(crate) struct Seconds {
     pub(crate) engine: f64,
     /// The perception section's measurements.
     pub(crate) perception: f64,
+    /// The world section's measurements.
+    pub(crate) world: f64,
     /// Drawing pictures and plots.
     pub(crate) pictures: f64,
     /// Everything, report included.
@@ -38,7 +41,7 @@ pub(crate) struct Seconds {
 pub(crate) struct Report<'a> {
     /// [`SCHEMA`].
     pub(crate) schema: &'static str,
-    /// `all`, `net`, `crowd`, `engine` or `perception`.
+    /// `all`, `net`, `crowd`, `engine`, `perception` or `world`.
     pub(crate) command: &'static str,
     /// Whether `--quick` was given.
     pub(crate) quick: bool,
@@ -54,6 +57,8 @@ pub(crate) struct Report<'a> {
     pub(crate) engine: Option<&'a EngineSection>,
     /// Perception scenes and strategies on screen (null when not run).
     pub(crate) perception: Option<&'a PerceptionSection>,
+    /// One frame budget for the whole world (null when not run).
+    pub(crate) world: Option<&'a WorldSection>,
     /// Files written next to the report (names relative to the output directory).
     pub(crate) files: Vec<String>,
     /// Wall times.

@@ -528,6 +528,36 @@ fn check_perception(p: &Value) {
     }
 }
 
+/// The `world` object: the names, and figures that are what they say.
+fn check_world(w: &Value) {
+    has(
+        w,
+        &[
+            "target_ms",
+            "frames",
+            "settled_after_frames",
+            "within_10pct_fraction",
+            "p50_ms",
+            "p99_ms",
+            "undone_fraction",
+            "threads",
+            "parallel_speedup",
+            "screen_rms_px",
+            "objects",
+            "per_object",
+            "cost_units",
+        ],
+    );
+    assert_eq!(f(w, "objects"), 17.0, "16 cloths and a crowd");
+    assert_eq!(w["per_object"].as_array().unwrap().len(), 17);
+    for key in ["within_10pct_fraction", "undone_fraction"] {
+        let x = f(w, key);
+        assert!((0.0..=1.0).contains(&x), "{key} {x}");
+    }
+    assert!(f(w, "p99_ms") >= f(w, "p50_ms") && f(w, "p50_ms") > 0.0);
+    assert!(f(w, "screen_rms_px") >= 0.0);
+}
+
 #[test]
 fn quick_run_writes_a_complete_report_and_real_pictures() {
     let dir = TempDir::new("all");
@@ -591,6 +621,7 @@ fn quick_run_writes_a_complete_report_and_real_pictures() {
     check_net(&r["net"]);
     check_crowd(&r["crowd"]);
     check_perception(&r["perception"]);
+    check_world(&r["world"]);
 
     let files: Vec<&str> = r["files"]
         .as_array()
@@ -607,6 +638,8 @@ fn quick_run_writes_a_complete_report_and_real_pictures() {
         "crowd_pose_error.png",
         "perception_error_cost.png",
         "perception_dolly_orbit.png",
+        "world_frame_time.png",
+        "world_budget_per_object.png",
     ] {
         assert!(files.contains(&name), "{name} not listed in {files:?}");
     }
@@ -698,6 +731,29 @@ fn each_command_runs_alone() {
     assert!(r["net"].is_null() && r["crowd"].is_null());
     check_perception(&r["perception"]);
     assert_not_blank(&dir.0.join("perception_error_cost.png"));
+
+    let dir = TempDir::new("world");
+    let (code, out, err) = demo(&[
+        "world",
+        "--quick",
+        "--frames",
+        "40",
+        "--target-ms",
+        "3",
+        "--out",
+        dir.0.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("World budget") && !out.contains("Table 2"));
+    let r = report(&dir.0);
+    assert_eq!(r["command"], "world");
+    assert!(r["net"].is_null() && r["perception"].is_null());
+    check_world(&r["world"]);
+    assert_eq!(f(&r["world"], "frames"), 40.0);
+    assert_eq!(f(&r["world"], "target_ms"), 3.0);
+    for png in ["world_frame_time.png", "world_budget_per_object.png"] {
+        assert_not_blank(&dir.0.join(png));
+    }
 }
 
 #[test]

@@ -12,6 +12,8 @@
 //! - [`crowd`] — the thesis' crowd test (`animation-lod-bone-priority-thesis.txt`, chapter 13).
 //! - [`rig`] — rigs built for the experiments from real ones ([`rig::grown_to`]).
 //! - [`screen`] — what a viewer sees: on-screen error in pixels through a view, and pops.
+//! - [`world`] — one frame budget for a whole world (issue 15): 16 cloths and a 1,000-character
+//!   crowd along a street, a flying camera, 4 ms per frame, against a full-detail reference.
 //! - [`rng`] — the one seeded generator; [`table`] — aligned plain-text tables.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -26,3 +28,4 @@ pub mod rig;
 pub mod rng;
 pub mod screen;
 pub mod table;
+pub mod world;

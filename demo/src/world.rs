@@ -1,0 +1,240 @@
+//! The world section (issue 15): sixteen cloths and a 1,000-character crowd along a street,
+//! a camera flying through, one budget of 4 ms per frame ([`slod_experiments::world`]), as a
+//! table, report.json's `world` object and two plots.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use serde::Serialize;
+use slod_experiments::world::{self, WorldConfig, WorldReport};
+
+use crate::error::DemoError;
+use crate::progress::Progress;
+
+/// Frames of the default run: the section's share of the demo's time on a 2-core machine.
+pub(crate) const DEFAULT_FRAMES: u32 = 300;
+
+/// What the section runs.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct WorldPlan {
+    pub(crate) config: WorldConfig,
+}
+
+impl WorldPlan {
+    /// The standard scene (the quick one with `quick`), `frames` and `target_ms` if given.
+    pub(crate) fn new(frames: Option<u32>, target_ms: Option<f32>, quick: bool) -> WorldPlan {
+        let assets = crate::engine::assets_dir();
+        let mut config = if quick {
+            WorldConfig::quick(&assets)
+        } else {
+            WorldConfig {
+                frames: DEFAULT_FRAMES,
+                cost_frames: 200,
+                twin: true,
+                ..WorldConfig::standard(&assets)
+            }
+        };
+        if let Some(f) = frames {
+            config.frames = f;
+        }
+        if let Some(ms) = target_ms {
+            config.target_ms = ms;
+        }
+        WorldPlan { config }
+    }
+}
+
+/// One object as reported.
+#[derive(Clone, Debug, Serialize)]
+pub(crate) struct WorldObjectReport {
+    /// `flag`, `curtain`, `cape` or `crowd`.
+    pub(crate) kind: &'static str,
+    /// e.g. `flag 49x49 @5m R`.
+    pub(crate) name: String,
+    /// Finest vertices of a cloth; characters × bones of the crowd.
+    pub(crate) full_detail: u64,
+    /// Distance along the street from the camera's start, m.
+    pub(crate) along_m: f32,
+    /// Its part of the units the millisecond run spent.
+    pub(crate) units_fraction: f64,
+    /// Mean detail (nodes or bones interpolated) over full detail.
+    pub(crate) mean_detail_fraction: f64,
+    /// The same over the frames its centre was in view (null if never).
+    pub(crate) in_view_detail_fraction: Option<f64>,
+}
+
+/// The deterministic cost-unit run as reported.
+#[derive(Clone, Debug, Serialize)]
+pub(crate) struct CostUnitsReport {
+    /// The target, cost units per frame.
+    pub(crate) target_units: f64,
+    /// The target as a fraction of the full-detail frame's units.
+    pub(crate) target_fraction_of_full: f64,
+    /// Frames.
+    pub(crate) frames: usize,
+    /// See the millisecond run.
+    pub(crate) settled_after_frames: Option<usize>,
+    /// See the millisecond run.
+    pub(crate) within_10pct_fraction: f64,
+    /// Median units per frame.
+    pub(crate) p50_units: f64,
+    /// 99th percentile of units per frame.
+    pub(crate) p99_units: f64,
+    /// See the millisecond run.
+    pub(crate) undone_fraction: f64,
+}
+
+/// report.json's `world` object.
+#[derive(Clone, Debug, Serialize)]
+pub(crate) struct WorldSection {
+    /// The budget per frame, ms (wall clock).
+    pub(crate) target_ms: f32,
+    /// Frames of the budgeted run.
+    pub(crate) frames: u32,
+    /// First frame within ±10% of the target from which ≥ 95% of frames are, with at least 60
+    /// frames (or half the run) to come; null if none.
+    pub(crate) settled_after_frames: Option<usize>,
+    /// Frames within ±10% from the settle frame on (over the run if never settled).
+    pub(crate) within_10pct_fraction: f64,
+    /// Median frame time, ms.
+    pub(crate) p50_ms: f64,
+    /// 99th percentile of the frame time, ms.
+    pub(crate) p99_ms: f64,
+    /// Operations undone within 30 steps over operations begun, all cloths.
+    pub(crate) undone_fraction: f64,
+    /// Threads of the budgeted world.
+    pub(crate) threads: usize,
+    /// Full-detail frame on one thread over the frame on `parallel_threads` (null if unmeasured).
+    pub(crate) parallel_speedup: Option<f64>,
+    /// Threads of the speedup's parallel blocks.
+    pub(crate) parallel_threads: usize,
+    /// Mean full-detail frame on one thread, ms.
+    pub(crate) full_detail_ms_serial: f64,
+    /// Mean full-detail frame on `parallel_threads`, ms.
+    pub(crate) full_detail_ms_parallel: f64,
+    /// Cloths on screen against the full-detail reference: mean per-frame RMS, px.
+    pub(crate) screen_rms_px: Option<f64>,
+    /// 99th percentile over vertex-frames, px.
+    pub(crate) screen_p99_px: Option<f64>,
+    /// Largest, px.
+    pub(crate) screen_max_px: Option<f64>,
+    /// The reference against its twin with one node per cloth moved by 1 µm (the chaos
+    /// floor): mean per-frame RMS, px (null when not run).
+    pub(crate) twin_screen_rms_px: Option<f64>,
+    /// The twin's largest, px (null when not run).
+    pub(crate) twin_screen_max_px: Option<f64>,
+    /// The crowd's mean on-screen pose error against exact poses, px.
+    pub(crate) crowd_mean_error_px: f64,
+    /// The crowd's largest, px.
+    pub(crate) crowd_max_error_px: f64,
+    /// Objects in the world.
+    pub(crate) objects: usize,
+    /// Characters of the crowd.
+    pub(crate) characters: usize,
+    /// Mean detail fraction of in-view cloths nearer than 15 m / farther than 30 m.
+    pub(crate) near_detail_fraction: Option<f64>,
+    /// See `near_detail_fraction`.
+    pub(crate) far_detail_fraction: Option<f64>,
+    /// Cost units of cloths whose centre was out of view over all cloths' units.
+    pub(crate) out_of_view_units_fraction: f64,
+    /// The shared error bound at the end of the run, px.
+    pub(crate) final_bound_px: f32,
+    /// Each object.
+    pub(crate) per_object: Vec<WorldObjectReport>,
+    /// The deterministic variant.
+    pub(crate) cost_units: CostUnitsReport,
+    /// Wall time of the section, s.
+    pub(crate) seconds: f64,
+}
+
+/// The section, its table and the run for the plots.
+#[derive(Debug)]
+pub(crate) struct WorldOutcome {
+    pub(crate) section: WorldSection,
+    pub(crate) report: WorldReport,
+    pub(crate) text: String,
+}
+
+/// Runs the section.
+pub(crate) fn run(plan: &WorldPlan, progress: Progress) -> Result<WorldOutcome, DemoError> {
+    let start = Instant::now();
+    let c = &plan.config;
+    let bar = progress.bar((c.frames + c.cost_frames) as u64, "world");
+    let report = world::run_world(c, &mut |name, done, _| {
+        // The lockstep run first, then the cost-unit variant.
+        let before = if name == "cost units" { c.frames } else { 0 };
+        bar.set_position((before + done) as u64);
+        bar.set_message(name.to_string());
+    })
+    .map_err(|e| DemoError::Internal(format!("world: {e}")))?;
+    bar.finish_and_clear();
+    let text = world::format_table(&report);
+    let b = &report.budgeted;
+    let cu = &report.cost_units;
+    let per_object = report
+        .objects
+        .iter()
+        .zip(&b.objects)
+        .map(|(o, s)| WorldObjectReport {
+            kind: o.kind,
+            name: o.name.clone(),
+            full_detail: o.full_detail,
+            along_m: o.along_m,
+            units_fraction: s.units_share,
+            mean_detail_fraction: s.mean_detail_fraction,
+            in_view_detail_fraction: s.in_view_detail_fraction,
+        })
+        .collect();
+    let section = WorldSection {
+        target_ms: c.target_ms,
+        frames: c.frames,
+        settled_after_frames: b.settle.settled_after,
+        within_10pct_fraction: b.settle.within_fraction,
+        p50_ms: b.p50_ms,
+        p99_ms: b.p99_ms,
+        undone_fraction: b.undone_fraction,
+        threads: b.threads,
+        parallel_speedup: report.parallel_speedup,
+        parallel_threads: report.parallel_threads,
+        full_detail_ms_serial: report.reference_ms_serial,
+        full_detail_ms_parallel: report.reference_ms_parallel,
+        screen_rms_px: Some(report.screen.rms_px),
+        screen_p99_px: Some(report.screen.p99_px),
+        screen_max_px: Some(report.screen.max_px),
+        twin_screen_rms_px: report.twin_screen.map(|e| e.rms_px),
+        twin_screen_max_px: report.twin_screen.map(|e| e.max_px),
+        crowd_mean_error_px: report.crowd_mean_error_px,
+        crowd_max_error_px: report.crowd_max_error_px,
+        objects: report.objects.len(),
+        characters: c.characters,
+        near_detail_fraction: b.near_detail_fraction,
+        far_detail_fraction: b.far_detail_fraction,
+        out_of_view_units_fraction: b.out_of_view_units_fraction,
+        final_bound_px: b.frames.last().map_or(0.0, |f| f.bound_px),
+        per_object,
+        cost_units: CostUnitsReport {
+            target_units: cu.target,
+            target_fraction_of_full: cu.target / report.full_detail_units.max(1.0),
+            frames: cu.frames.len(),
+            settled_after_frames: cu.settle.settled_after,
+            within_10pct_fraction: cu.settle.within_fraction,
+            p50_units: cu.p50_measured,
+            p99_units: cu.p99_measured,
+            undone_fraction: cu.undone_fraction,
+        },
+        seconds: start.elapsed().as_secs_f64(),
+    };
+    Ok(WorldOutcome {
+        section,
+        report,
+        text,
+    })
+}
+
+/// The section's plots: frame time and bound, and the budget spent per object.
+pub(crate) fn plots(outcome: &WorldOutcome, dir: &Path) -> Result<Vec<PathBuf>, DemoError> {
+    Ok(vec![
+        crate::plots::world_frame_time(&outcome.report, dir)?,
+        crate::plots::world_budget_per_object(&outcome.report, dir)?,
+    ])
+}
