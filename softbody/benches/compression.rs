@@ -32,6 +32,7 @@ fn solver() -> SolverSettings {
         iterations: 20,
         gravity: Vec3::new(0.0, -9.81, 0.0),
         damping: 0.1,
+        ..SolverSettings::default()
     }
 }
 

@@ -98,6 +98,7 @@ mod links;
 mod settings;
 pub mod shape;
 mod tc;
+mod team;
 pub mod wind;
 
 #[cfg(test)]

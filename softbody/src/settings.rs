@@ -113,6 +113,12 @@ pub struct SolverSettings {
     /// Velocity damping rate in 1/s: velocities decay by `exp(-damping·dt)` per step,
     /// independent of how the step is split.
     pub damping: f32,
+    /// Threads for one large body: a colour batch with at least this many links is split into
+    /// one run of links per thread of the caller's rayon pool (`rayon::current_num_threads()`;
+    /// install a pool to choose), and when any batch is, the per-particle loops (prediction,
+    /// velocity update) are split too. 0 = always on the calling thread. Results are the same
+    /// bits whatever the threads (see the crate docs, *threads*).
+    pub parallel_min_links: u32,
 }
 
 /// The defaults are the values the swinging-net experiment measured good, chosen so that a
@@ -141,11 +147,15 @@ impl Default for SolverSettings {
             iterations: 1,
             gravity: Vec3::new(0.0, -9.81, 0.0),
             damping: 2.0,
+            parallel_min_links: Self::DEFAULT_PARALLEL_MIN_LINKS,
         }
     }
 }
 
 impl SolverSettings {
+    /// The default [`SolverSettings::parallel_min_links`]: see `Default`.
+    pub const DEFAULT_PARALLEL_MIN_LINKS: u32 = 4096;
+
     /// Checks every field; a bad one is named in the error.
     pub fn validate(&self) -> Result<(), SoftBodyError> {
         if !(self.dt.is_finite() && self.dt > 0.0) {
