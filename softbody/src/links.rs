@@ -31,6 +31,10 @@ const OVERFLOW: u32 = COLOURS as u32;
 /// The fewest links a colour batch must have to be split across threads (two blocks), whatever
 /// `SolverSettings::parallel_min_links` says.
 pub(crate) const MIN_SPLIT: usize = 2 * LANES;
+/// Runs a split batch is cut into per thread: more than one, so that when a thread is late (its
+/// core taken by another process) the others take over its share instead of waiting, and few
+/// enough that claiming a run (a compare-and-swap and an uncontended lock) stays negligible.
+const RUNS_PER_THREAD: usize = 4;
 /// Slot marker of a free link id.
 const FREE: u32 = u32::MAX;
 
@@ -442,8 +446,8 @@ impl LinkStore {
     }
 
     /// `sweeps` sweeps like [`LinkStore::solve`], each followed by `after_sweep` (the group
-    /// links), with every colour batch of at least `min_links` links cut into `threads` runs of
-    /// whole blocks shared out by a [`team`] on the current rayon pool; smaller batches, the
+    /// links), with every colour batch of at least `min_links` links cut into runs of whole blocks
+    /// ([`RUNS_PER_THREAD`] per thread) shared out by a [`team`] on the current rayon pool; smaller batches, the
     /// ordered overflow batch and `after_sweep` run on the calling thread, between phases.
     /// Gives exactly the bits of the sequential sweeps: inside a batch each link reads and
     /// writes only its own two particles, so which thread solves it, and when, changes nothing.
@@ -459,7 +463,7 @@ impl LinkStore {
         threads: usize,
         mut after_sweep: impl FnMut(&mut SharedParticles<'_>) + Send,
     ) {
-        let parts = threads.clamp(1, team::MAX_RUNS);
+        let parts = (threads * RUNS_PER_THREAD).clamp(1, team::MAX_RUNS);
         let min_links = min_links.max(MIN_SPLIT);
         // Every batch as runs of whole blocks (one run when it is too small to split); the
         // mutexes are never contended (each run is claimed once per phase), they only hand a
@@ -497,7 +501,7 @@ impl LinkStore {
             let mut view = shared;
             kernel::solve_batch(path, &mut view, blocks, *len, inv_h2);
         };
-        team::run(parts - 1, &work, |leader| {
+        team::run(threads - 1, &work, |leader| {
             let mut view = shared;
             for _ in 0..sweeps {
                 for &(start, count) in &plan {

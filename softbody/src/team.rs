@@ -122,8 +122,16 @@ impl<W: Fn(usize) + Sync> Leader<'_, W> {
             Ordering::Release,
         );
         self.shared.drain(self.work);
+        // Only runs a helper has claimed are still in flight; should its thread have lost its
+        // core, yielding after a while lets it have this one.
+        let mut spins = 0u32;
         while self.shared.done.load(Ordering::Acquire) < count {
-            std::hint::spin_loop();
+            if spins < SPINS {
+                spins += 1;
+                std::hint::spin_loop();
+            } else {
+                std::thread::yield_now();
+            }
         }
     }
 }

@@ -1,14 +1,15 @@
 //! The AVX2 and AVX-512F block kernels (x86-64), selected at run time.
 //!
-//! # The one exception to `forbid(unsafe_code)`
+//! # An exception to `deny(unsafe_code)`
 //! A function compiled for a CPU feature (`#[target_feature]`) may only be called once the CPU
-//! is known to have it, and Rust makes that call `unsafe`. This module holds the crate's only
-//! two `unsafe` blocks: each calls its kernel right after `is_x86_feature_detected!` confirmed
+//! is known to have it, and Rust makes that call `unsafe`. This module holds two `unsafe` blocks
+//! (the others are the shared particle view of `shared.rs`): each calls its kernel right after `is_x86_feature_detected!` confirmed
 //! the feature. Everything else here is safe code: since Rust 1.87 (1.89 for AVX-512) the `std::arch` value
 //! intrinsics are safe inside a function compiled with their feature, particles move between
 //! `glam::Vec4` and `__m128` through `glam`'s safe conversions, and link data is read from and
-//! written to the block's arrays by value. Every particle access is a checked slice index, so
-//! a bad index panics instead of reading out of bounds.
+//! written to the block's arrays by value. Every particle access goes through
+//! [`Particles`](super::Particles), a checked slice index either way, so a bad index panics
+//! instead of reading out of bounds.
 //!
 //! # Layout in registers
 //! Register `r_j` (`j` = 0..3) holds, in its 128-bit lane `L`, the particle of link `4L + j`.
