@@ -639,9 +639,10 @@ impl SoftBody {
             // No contact this step (the last collider may just have been removed).
             self.contact.touched.fill(false);
         }
+        // Particles per thread when the particle loops are split.
+        let c = self.positions.len().div_ceil(threads).max(1);
         for sub in 0..n {
             if threads > 1 {
-                let c = self.positions.len().div_ceil(threads).max(1);
                 self.positions
                     .par_chunks_mut(c)
                     .zip(self.velocities.par_chunks_mut(c))
@@ -701,7 +702,6 @@ impl SoftBody {
                 );
             }
             if threads > 1 {
-                let c = self.positions.len().div_ceil(threads).max(1);
                 self.velocities
                     .par_chunks_mut(c)
                     .zip(self.positions.par_chunks(c))
