@@ -16,6 +16,8 @@
 //! thread only); the throughput line is wall nanoseconds per link-iteration. Run
 //! `cargo bench -p softbody --bench step -- threads --warm-up-time 1 --measurement-time 3` and
 //! compare `…/1` with `…/2` of the same run (on a shared machine only the ratio means much).
+//! `…/2 bodies on 2` steps two independent copies side by side on the 2-thread pool: its
+//! throughput against `…/1` is the most two threads can give in that run window.
 #[path = "support/cpu_time.rs"]
 mod cpu_time;
 
@@ -118,12 +120,31 @@ fn bench_threads(c: &mut Criterion) {
         let mut group = c.benchmark_group(format!("threads/{name}"));
         let iterations = u64::from(body.settings().iterations * body.settings().substeps);
         group.throughput(Throughput::Elements(body.link_count() as u64 * iterations));
+        let links = body.link_count() as u64 * iterations;
         for (threads, pool) in &pools {
             let mut body = body.clone();
             group.bench_function(threads.to_string(), |b| {
                 pool.install(|| b.iter(|| black_box(&mut body).step()));
             });
         }
+        // The ceiling of the moment: two bodies, each on one thread, stepped side by side on
+        // the 2-thread pool (nothing shared, no synchronisation). On a machine whose cores are
+        // partly taken by other jobs this is what 2 threads can give at best.
+        group.throughput(Throughput::Elements(2 * links));
+        let mut pair = [body.clone(), body.clone()].map(|mut b| {
+            let mut s = *b.settings();
+            s.parallel_min_links = 0;
+            b.set_settings(s).unwrap();
+            b
+        });
+        group.bench_function("2 bodies on 2", |b| {
+            pools[1].1.install(|| {
+                b.iter(|| {
+                    let [x, y] = &mut pair;
+                    rayon::join(|| x.step(), || y.step())
+                });
+            });
+        });
         group.finish();
     }
 }

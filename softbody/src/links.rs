@@ -501,7 +501,7 @@ impl LinkStore {
             let mut view = shared;
             kernel::solve_batch(path, &mut view, blocks, *len, inv_h2);
         };
-        team::run(threads - 1, &work, |leader| {
+        team::run(threads - 1, parts, &work, |leader| {
             let mut view = shared;
             for _ in 0..sweeps {
                 for &(start, count) in &plan {

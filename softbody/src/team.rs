@@ -11,82 +11,89 @@
 //! the helpers stay awake (spinning, then yielding) for the whole team session and pick up each
 //! phase as soon as the leader publishes it.
 //!
+//! # Affinity
+//! Member `k` of `T` (the leader is member 0) first takes the runs `k·count/T .. (k+1)·count/T`
+//! of every phase, and only then any run still unclaimed. The runs of a colour batch are
+//! contiguous pieces of it, and the links of every batch are ordered alike (by particle, as the
+//! builders and renumbering add them), so a member keeps solving the same region of the cloth
+//! and its particles stay in its core's cache. Handing runs out first come, first served made
+//! particles travel between cores every batch, and two threads were slower than one even with
+//! the work split evenly.
+//!
 //! # Protocol
-//! One atomic *ticket* describes the current phase: a sequence number, the first run, how many
-//! runs it has and how many have been claimed. Anyone (leader or helper) claims the next run
-//! with a compare-and-swap, so each run is solved exactly once, by whoever gets there first;
-//! [`Leader::phase`] returns when every run of the phase has been counted done. The leader never
-//! waits for a helper that has not claimed anything: if no helper ever starts (a busy pool, a
-//! pool of one), the leader solves every run itself, so a session cannot deadlock, whatever the
-//! pool is doing. Helpers only spin while their leader is still working and leave when it ends
-//! the session (also when it panics).
+//! One atomic word names the current phase: a sequence number, its first run and how many runs
+//! it has. A run is claimed by raising its flag to the phase's sequence number (`fetch_max`: a
+//! member still looking at an older phase cannot claim a run of a newer one), so each run is
+//! solved exactly once, by whoever gets there first; [`Leader::phase`] returns when every run of
+//! the phase has been counted done. The leader never waits for a helper that has not claimed
+//! anything: if no helper ever starts (a busy pool, a pool of one), the leader solves every run
+//! itself, so a session cannot deadlock, whatever the pool is doing. Helpers only spin while
+//! their leader is still working and leave when it ends the session (also when it panics).
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 
-/// Bits of the ticket: `seq << 40 | start << 24 | claimed << 12 | count`.
-const FIELD: u64 = (1 << 12) - 1;
-/// Most runs one phase can have (the 12-bit `count` field).
-pub(crate) const MAX_RUNS: usize = FIELD as usize;
-/// Busy-wait rounds before a waiting helper starts yielding its core.
+/// Most runs one phase can have (64 colour batches of these fit the 16-bit `start`).
+pub(crate) const MAX_RUNS: usize = 1 << 10;
+/// Busy-wait rounds before a waiting member starts yielding its core.
 const SPINS: u32 = 1 << 14;
 
 /// The shared state of one team session.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 struct Shared {
-    ticket: AtomicU64,
+    /// `seq << 32 | start << 16 | count` of the current phase (`seq` 0: none yet).
+    phase: AtomicU64,
+    /// Per run of a phase: the sequence number of the last phase that claimed it.
+    claimed: Vec<AtomicU64>,
     done: AtomicUsize,
     stop: AtomicBool,
+    members: usize,
 }
 
 impl Shared {
-    /// Claims the next unclaimed run of the current phase, if any.
-    fn claim(&self) -> Option<usize> {
-        let mut t = self.ticket.load(Ordering::Acquire);
-        loop {
-            let (claimed, count) = ((t >> 12) & FIELD, t & FIELD);
-            if claimed >= count {
-                return None;
-            }
-            match self.ticket.compare_exchange_weak(
-                t,
-                t + (1 << 12),
-                Ordering::AcqRel,
-                Ordering::Acquire,
-            ) {
-                Ok(_) => return Some((((t >> 24) & 0xFFFF) + claimed) as usize),
-                Err(now) => t = now,
-            }
-        }
-    }
-
-    /// Claims and solves runs until the current phase has none left; whether it solved any.
-    fn drain(&self, work: &impl Fn(usize)) -> bool {
+    /// Solves the runs of the phase `word` that member `k` can still claim, its own first;
+    /// whether it solved any.
+    fn drain(&self, word: u64, k: usize, work: &impl Fn(usize)) -> bool {
+        let seq = word >> 32;
+        let (start, count) = (((word >> 16) & 0xFFFF) as usize, (word & 0xFFFF) as usize);
+        let own = k * count / self.members;
         let mut any = false;
-        while let Some(run) = self.claim() {
-            work(run);
-            self.done.fetch_add(1, Ordering::Release);
-            any = true;
+        for i in (own..count).chain(0..own) {
+            if self.claimed[i].fetch_max(seq, Ordering::AcqRel) < seq {
+                work(start + i);
+                self.done.fetch_add(1, Ordering::Release);
+                any = true;
+            }
         }
         any
     }
 
-    /// A helper: solves whatever is published until the session ends.
-    fn help(&self, work: &impl Fn(usize)) {
-        let mut idle = 0u32;
+    /// Helper `k`: solves its share of whatever is published until the session ends.
+    fn help(&self, k: usize, work: &impl Fn(usize)) {
+        let (mut seen, mut idle) = (0u64, 0u32);
         loop {
-            let worked = self.drain(work);
-            if self.stop.load(Ordering::Acquire) {
+            let word = self.phase.load(Ordering::Acquire);
+            if word >> 32 != seen {
+                seen = word >> 32;
+                if self.drain(word, k, work) {
+                    idle = 0;
+                }
+            } else if self.stop.load(Ordering::Acquire) {
                 return;
-            }
-            if worked {
-                idle = 0;
-            } else if idle < SPINS {
-                idle += 1;
-                std::hint::spin_loop();
             } else {
-                std::thread::yield_now();
+                idle = wait(idle);
             }
         }
+    }
+}
+
+/// One round of waiting: spin a while, then yield the core; returns the new round count.
+fn wait(idle: u32) -> u32 {
+    if idle < SPINS {
+        std::hint::spin_loop();
+        idle + 1
+    } else {
+        std::thread::yield_now();
+        idle
     }
 }
 
@@ -111,36 +118,32 @@ impl<W: Fn(usize) + Sync> Leader<'_, W> {
     /// with the helpers, and returns when all are done: everything the runs wrote is then
     /// visible to the caller, and no helper touches anything until the next phase.
     pub(crate) fn phase(&self, start: usize, count: usize) {
-        debug_assert!(count <= MAX_RUNS && start < 1 << 16);
-        let seq = self.seq.get().wrapping_add(1) & ((1 << 24) - 1);
+        assert!(count <= MAX_RUNS.min(self.shared.claimed.len()) && start < 1 << 16);
+        let seq = self.seq.get() + 1;
         self.seq.set(seq);
-        // No run of the previous phase is still in flight (it was waited for), so nobody adds to
-        // `done` between this reset and the publication below.
+        // No run of the previous phase is still in flight (it was waited for), and no run of
+        // an older phase can be claimed any more, so nobody adds to `done` between this reset
+        // and the publication below.
         self.shared.done.store(0, Ordering::Relaxed);
-        self.shared.ticket.store(
-            (seq << 40) | ((start as u64) << 24) | count as u64,
-            Ordering::Release,
-        );
-        self.shared.drain(self.work);
+        let word = (seq << 32) | ((start as u64) << 16) | count as u64;
+        self.shared.phase.store(word, Ordering::Release);
+        self.shared.drain(word, 0, self.work);
         // Only runs a helper has claimed are still in flight; should its thread have lost its
         // core, yielding after a while lets it have this one.
-        let mut spins = 0u32;
+        let mut idle = 0;
         while self.shared.done.load(Ordering::Acquire) < count {
-            if spins < SPINS {
-                spins += 1;
-                std::hint::spin_loop();
-            } else {
-                std::thread::yield_now();
-            }
+            idle = wait(idle);
         }
     }
 }
 
 /// Runs `lead` on the calling thread with `helpers` helper tasks spawned on the current rayon
-/// pool; they solve runs of the phases the leader publishes with [`Leader::phase`] by calling
-/// `work(run)`. Returns when the leader is done and every helper has left.
+/// pool; together they solve the phases of at most `max_runs` runs that the leader publishes
+/// with [`Leader::phase`], calling `work(run)` once per run. Returns when the leader is done and
+/// every helper has left.
 pub(crate) fn run<W, R>(
     helpers: usize,
+    max_runs: usize,
     work: &W,
     lead: impl FnOnce(&Leader<'_, W>) -> R + Send,
 ) -> R
@@ -148,11 +151,19 @@ where
     W: Fn(usize) + Sync,
     R: Send,
 {
-    let shared = Shared::default();
+    let shared = Shared {
+        phase: AtomicU64::new(0),
+        claimed: (0..max_runs.min(MAX_RUNS))
+            .map(|_| AtomicU64::new(0))
+            .collect(),
+        done: AtomicUsize::new(0),
+        stop: AtomicBool::new(false),
+        members: helpers + 1,
+    };
     rayon::scope(|s| {
-        for _ in 0..helpers {
+        for k in 1..=helpers {
             let shared = &shared;
-            s.spawn(move |_| shared.help(work));
+            s.spawn(move |_| shared.help(k, work));
         }
         let _stop = StopOnDrop(&shared);
         lead(&Leader {
@@ -182,7 +193,7 @@ mod tests {
                 .build()
                 .unwrap();
             pool.install(|| {
-                run(helpers, &work, |leader| {
+                run(helpers, 25, &work, |leader| {
                     for round in 1..=50 {
                         leader.phase(0, 25);
                         leader.phase(25, 15);
