@@ -409,8 +409,8 @@ pub(crate) fn on_pool<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> 
 }
 
 /// Splitting the colour batches and particle loops across threads changes no bit: the same
-/// body (every batch split, an ordered overflow batch from a 70-link hub, links removed and
-/// reweighted midway) steps to identical positions and velocities on 1, 2 and 4 threads, and
+/// body (every batch split, an ordered overflow batch from a 70-link hub, a collider, links
+/// removed and reweighted midway) steps to identical positions and velocities on 1, 2 and 4 threads, and
 /// with splitting switched off.
 #[test]
 fn threads_step_bit_identically() {
@@ -422,6 +422,15 @@ fn threads_step_bit_identically() {
         let p = ParticleId::from_raw(k * 7);
         reference.add_link(hub, p, 0.6, 1e-4).unwrap();
     }
+    // A sphere under the middle, so the contact pass runs between the split sweeps.
+    reference
+        .colliders_mut()
+        .add(ColliderDesc {
+            shape: Shape::Sphere { radius: 0.15 },
+            transform: Transform::from_position(Vec3::new(0.5, -0.2, 0.5)),
+            ..ColliderDesc::default()
+        })
+        .unwrap();
     let run = |min_links: u32, threads: usize| {
         let mut body = reference.clone();
         body.set_settings(SolverSettings {
@@ -447,6 +456,10 @@ fn threads_step_bit_identically() {
             }
         });
         body.check_links();
+        assert!(
+            body.touched_all().iter().any(|&t| t),
+            "the sphere was reached"
+        );
         (bits(body.positions()), bits(body.velocities()))
     };
     let sequential = run(0, 1);
