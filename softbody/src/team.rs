@@ -1,24 +1,23 @@
 //! A leader thread and spinning helpers that share out *phases* of numbered runs of work: how
-//! one body's colour batches are split across threads with a synchronisation cost of well under
-//! a microsecond per batch.
+//! one body's colour batches are split across threads for a fraction of a microsecond per batch.
 //!
 //! # Why not `rayon::join` per batch
 //! A large cloth runs `substeps × iterations × colours` batches per step (360 at 20 iterations
-//! and 18 colours), each a few to a few tens of microseconds of work. Forking each with
-//! `rayon::join` was measured *slower* than one thread on the 2-core VM this was tuned on:
-//! between two joins rayon's idle worker goes to sleep, waking it takes longer than a batch, so
-//! the caller ended up solving about 88% of the runs itself and paid the fork for nothing. Here
-//! the helpers stay awake (spinning, then yielding) for the whole team session and pick up each
-//! phase as soon as the leader publishes it.
+//! and 18 colours), each a few to a few tens of microseconds of work. Forked with `rayon::join`
+//! per batch, the caller solved 88% of the runs itself (measured at 257², 2 threads): between
+//! two joins rayon's idle worker goes to sleep, and waking it takes about as long as a batch.
+//! Here the helpers stay awake (spinning, then yielding) for the whole team session and pick
+//! up each phase as soon as the leader publishes it; with work this small a phase then costs
+//! about 0.2–0.7 µs more than its share of the work (33² cloth with every batch split, quietest
+//! samples on the loaded 2-core VM this was written on).
 //!
 //! # Affinity
 //! Member `k` of `T` (the leader is member 0) first takes the runs `k·count/T .. (k+1)·count/T`
 //! of every phase, and only then any run still unclaimed. The runs of a colour batch are
 //! contiguous pieces of it, and the links of every batch are ordered alike (by particle, as the
 //! builders and renumbering add them), so a member keeps solving the same region of the cloth
-//! and its particles stay in its core's cache. Handing runs out first come, first served made
-//! particles travel between cores every batch, and two threads were slower than one even with
-//! the work split evenly.
+//! and its particles can stay in its core's cache instead of moving between cores every batch,
+//! as they would if runs went to whoever came first.
 //!
 //! # Protocol
 //! One atomic word names the current phase: a sequence number, its first run and how many runs
