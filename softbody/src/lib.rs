@@ -58,7 +58,10 @@
 //! not. Splitting
 //! pays only when the pool's threads have cores to themselves: on an oversubscribed machine a
 //! helper that loses its core mid-run makes the caller wait (use a one-thread pool or
-//! `parallel_min_links = 0` there). A body whose batches are all smaller never asks rayon for
+//! `parallel_min_links = 0` there). The same goes for a host that already steps several bodies
+//! at once on its pool: a body's helpers spin on pool threads for the whole of its sweeps (a
+//! helper that never gets a thread costs nothing: the caller then solves every run itself, and
+//! cannot deadlock whatever the pool is doing). A body whose batches are all smaller never asks rayon for
 //! anything, so small cloths do not even start the global pool.
 //!
 //! # TreeCut-SoftBody
