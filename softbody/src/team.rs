@@ -29,6 +29,7 @@
 //! itself, so a session cannot deadlock, whatever the pool is doing. Helpers only spin while
 //! their leader is still working and leave when it ends the session (also when it panics).
 
+use std::cell::Cell;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 
 /// Most runs one phase can have (64 colour batches of these fit the 16-bit `start`).
@@ -36,47 +37,62 @@ pub(crate) const MAX_RUNS: usize = 1 << 10;
 /// Busy-wait rounds before a waiting member starts yielding its core.
 const SPINS: u32 = 1 << 14;
 
-/// The shared state of one team session.
+/// A value alone in its cache lines (128 bytes: two lines, for CPUs that fetch pairs), so that
+/// members writing different values do not take the line from each other.
+#[derive(Debug, Default)]
+#[repr(align(128))]
+struct Padded<T>(T);
+
+/// The shared state of one team session. Everything a member writes often is its own line: the
+/// flag of each run and each member's done count; per phase, a member that solves only its own
+/// runs moves about two cache lines between cores (the phase word and its done count).
 #[derive(Debug)]
 struct Shared {
     /// `seq << 32 | start << 16 | count` of the current phase (`seq` 0: none yet).
-    phase: AtomicU64,
+    phase: Padded<AtomicU64>,
+    stop: Padded<AtomicBool>,
     /// Per run of a phase: the sequence number of the last phase that claimed it.
-    claimed: Vec<AtomicU64>,
-    done: AtomicUsize,
-    stop: AtomicBool,
-    members: usize,
+    claimed: Vec<Padded<AtomicU64>>,
+    /// Per member: how many runs it has solved in this session.
+    done: Vec<Padded<AtomicUsize>>,
 }
 
 impl Shared {
-    /// Solves the runs of the phase `word` that member `k` can still claim, its own first;
-    /// whether it solved any.
-    fn drain(&self, word: u64, k: usize, work: &impl Fn(usize)) -> bool {
+    /// Solves the runs of the phase `word` that member `k` can still claim, its own first, and
+    /// publishes its new total (`solved`, kept by the member).
+    fn drain(&self, word: u64, k: usize, solved: &mut usize, work: &impl Fn(usize)) {
         let seq = word >> 32;
         let (start, count) = (((word >> 16) & 0xFFFF) as usize, (word & 0xFFFF) as usize);
-        let own = k * count / self.members;
-        let mut any = false;
+        let own = k * count / self.done.len();
+        let before = *solved;
         for i in (own..count).chain(0..own) {
-            if self.claimed[i].fetch_max(seq, Ordering::AcqRel) < seq {
+            let flag = &self.claimed[i].0;
+            // A plain read first: a run someone else already has costs no write to its line.
+            if flag.load(Ordering::Relaxed) < seq && flag.fetch_max(seq, Ordering::AcqRel) < seq {
                 work(start + i);
-                self.done.fetch_add(1, Ordering::Release);
-                any = true;
+                *solved += 1;
             }
         }
-        any
+        if *solved != before {
+            self.done[k].0.store(*solved, Ordering::Release);
+        }
+    }
+
+    /// Runs solved so far by all members.
+    fn done(&self) -> usize {
+        self.done.iter().map(|d| d.0.load(Ordering::Acquire)).sum()
     }
 
     /// Helper `k`: solves its share of whatever is published until the session ends.
     fn help(&self, k: usize, work: &impl Fn(usize)) {
-        let (mut seen, mut idle) = (0u64, 0u32);
+        let (mut seen, mut idle, mut solved) = (0u64, 0u32, 0usize);
         loop {
-            let word = self.phase.load(Ordering::Acquire);
+            let word = self.phase.0.load(Ordering::Acquire);
             if word >> 32 != seen {
                 seen = word >> 32;
-                if self.drain(word, k, work) {
-                    idle = 0;
-                }
-            } else if self.stop.load(Ordering::Acquire) {
+                self.drain(word, k, &mut solved, work);
+                idle = 0;
+            } else if self.stop.0.load(Ordering::Acquire) {
                 return;
             } else {
                 idle = wait(idle);
@@ -101,7 +117,7 @@ struct StopOnDrop<'a>(&'a Shared);
 
 impl Drop for StopOnDrop<'_> {
     fn drop(&mut self) {
-        self.0.stop.store(true, Ordering::Release);
+        self.0.stop.0.store(true, Ordering::Release);
     }
 }
 
@@ -109,7 +125,10 @@ impl Drop for StopOnDrop<'_> {
 pub(crate) struct Leader<'a, W> {
     shared: &'a Shared,
     work: &'a W,
-    seq: std::cell::Cell<u64>,
+    seq: Cell<u64>,
+    /// Runs published so far, and how many of them the leader solved.
+    published: Cell<usize>,
+    solved: Cell<usize>,
 }
 
 impl<W: Fn(usize) + Sync> Leader<'_, W> {
@@ -117,20 +136,19 @@ impl<W: Fn(usize) + Sync> Leader<'_, W> {
     /// with the helpers, and returns when all are done: everything the runs wrote is then
     /// visible to the caller, and no helper touches anything until the next phase.
     pub(crate) fn phase(&self, start: usize, count: usize) {
-        assert!(count <= MAX_RUNS.min(self.shared.claimed.len()) && start < 1 << 16);
+        assert!(count <= self.shared.claimed.len() && start < 1 << 16);
         let seq = self.seq.get() + 1;
         self.seq.set(seq);
-        // No run of the previous phase is still in flight (it was waited for), and no run of
-        // an older phase can be claimed any more, so nobody adds to `done` between this reset
-        // and the publication below.
-        self.shared.done.store(0, Ordering::Relaxed);
+        self.published.set(self.published.get() + count);
         let word = (seq << 32) | ((start as u64) << 16) | count as u64;
-        self.shared.phase.store(word, Ordering::Release);
-        self.shared.drain(word, 0, self.work);
+        self.shared.phase.0.store(word, Ordering::Release);
+        let mut solved = self.solved.get();
+        self.shared.drain(word, 0, &mut solved, self.work);
+        self.solved.set(solved);
         // Only runs a helper has claimed are still in flight; should its thread have lost its
         // core, yielding after a while lets it have this one.
         let mut idle = 0;
-        while self.shared.done.load(Ordering::Acquire) < count {
+        while self.shared.done() < self.published.get() {
             idle = wait(idle);
         }
     }
@@ -151,13 +169,12 @@ where
     R: Send,
 {
     let shared = Shared {
-        phase: AtomicU64::new(0),
+        phase: Padded(AtomicU64::new(0)),
+        stop: Padded(AtomicBool::new(false)),
         claimed: (0..max_runs.min(MAX_RUNS))
-            .map(|_| AtomicU64::new(0))
+            .map(|_| Padded(AtomicU64::new(0)))
             .collect(),
-        done: AtomicUsize::new(0),
-        stop: AtomicBool::new(false),
-        members: helpers + 1,
+        done: (0..=helpers).map(|_| Padded(AtomicUsize::new(0))).collect(),
     };
     rayon::scope(|s| {
         for k in 1..=helpers {
@@ -168,7 +185,9 @@ where
         lead(&Leader {
             shared: &shared,
             work,
-            seq: std::cell::Cell::new(0),
+            seq: Cell::new(0),
+            published: Cell::new(0),
+            solved: Cell::new(0),
         })
     })
 }
