@@ -372,14 +372,7 @@ fn every_kernel_path_steps_like_scalar() {
         assert_eq!(body.kernel_path(), path);
         for step in 0..12 {
             if step == 4 {
-                let ids: Vec<LinkId> = body.links().map(|l| l.id).step_by(7).collect();
-                for (k, id) in ids.into_iter().enumerate() {
-                    if k % 2 == 0 {
-                        body.remove_link(id).unwrap();
-                    } else {
-                        body.set_link_weight(id, 0.3).unwrap();
-                    }
-                }
+                thin_links(&mut body, 7, 0.3);
             }
             body.step();
         }
@@ -396,6 +389,18 @@ fn every_kernel_path_steps_like_scalar() {
             body.set_kernel_path(p),
             Err(SoftBodyError::UnsupportedKernel(_))
         ));
+    }
+}
+
+/// Of every `every`-th link (in solve order), removes half and gives the others `weight`.
+fn thin_links(body: &mut SoftBody, every: usize, weight: f32) {
+    let ids: Vec<LinkId> = body.links().map(|l| l.id).step_by(every).collect();
+    for (k, id) in ids.into_iter().enumerate() {
+        if k % 2 == 0 {
+            body.remove_link(id).unwrap();
+        } else {
+            body.set_link_weight(id, weight).unwrap();
+        }
     }
 }
 
@@ -443,14 +448,7 @@ fn threads_step_bit_identically() {
         on_pool(threads, || {
             for step in 0..10 {
                 if step == 4 {
-                    let ids: Vec<LinkId> = body.links().map(|l| l.id).step_by(5).collect();
-                    for (k, id) in ids.into_iter().enumerate() {
-                        if k % 2 == 0 {
-                            body.remove_link(id).unwrap();
-                        } else {
-                            body.set_link_weight(id, 0.4).unwrap();
-                        }
-                    }
+                    thin_links(&mut body, 5, 0.4);
                 }
                 body.step();
             }
