@@ -33,7 +33,8 @@ const OVERFLOW: u32 = COLOURS as u32;
 pub(crate) const MIN_SPLIT: usize = 2 * LANES;
 /// Runs a split batch is cut into per thread: more than one, so that when a thread is late (its
 /// core taken by another process) the others take over its share instead of waiting, and few
-/// enough that claiming a run (a compare-and-swap and an uncontended lock) stays negligible.
+/// enough that claiming a run (an atomic read-and-raise of its flag and an uncontended lock)
+/// stays negligible.
 const RUNS_PER_THREAD: usize = 4;
 /// Slot marker of a free link id.
 const FREE: u32 = u32::MAX;
@@ -446,9 +447,10 @@ impl LinkStore {
     }
 
     /// `sweeps` sweeps like [`LinkStore::solve`], each followed by `after_sweep` (the group
-    /// links), with every colour batch of at least `min_links` links cut into runs of whole blocks
-    /// ([`RUNS_PER_THREAD`] per thread) shared out by a [`team`] on the current rayon pool; smaller batches, the
-    /// ordered overflow batch and `after_sweep` run on the calling thread, between phases.
+    /// links), with every colour batch of at least `min_links` links cut into runs of whole
+    /// blocks ([`RUNS_PER_THREAD`] per thread) shared out by a [`team`] on the current rayon
+    /// pool; smaller batches, the ordered overflow batch and `after_sweep` run on the calling
+    /// thread, between phases.
     /// Gives exactly the bits of the sequential sweeps: inside a batch each link reads and
     /// writes only its own two particles, so which thread solves it, and when, changes nothing.
     #[allow(unsafe_code)]
