@@ -762,6 +762,12 @@ typedef struct SlodSolverDesc {
    * Steps over which a refine or coarse blends old links out and new ones in, 0..=65536.
    */
   uint32_t blend_steps;
+  /**
+   * A colour batch of at least this many links is split across the world's worker threads
+   * (same results, bit for bit); 0 = one thread. Ignored (one thread) in a world created with
+   * `worker_threads` 1. The default splits cloths of about 129×129 vertices and up.
+   */
+  uint32_t parallel_min_links;
 } SlodSolverDesc;
 
 /**

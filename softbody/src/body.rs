@@ -18,6 +18,7 @@ use crate::kernel::KernelPath;
 use crate::links::{LinkInfo, LinkStore};
 use crate::settings::SolverSettings;
 use glam::{Vec3, Vec3A, Vec4};
+use rayon::prelude::*;
 
 /// A kinematic anchor: a pinned particle the host moves; it travels linearly to `target`
 /// over the substeps of the next step (so it carries the matching velocity).
@@ -51,6 +52,39 @@ fn finite3(v: Vec3, what: &'static str) -> Result<(), SoftBodyError> {
         Ok(())
     } else {
         Err(SoftBodyError::NotFinite { what })
+    }
+}
+
+/// The per-substep constants of the prediction (see [`SoftBody::step`]).
+#[derive(Clone, Copy)]
+struct Motion {
+    h: f32,
+    damp: f32,
+    g: Vec4,
+}
+
+impl Motion {
+    /// Predicts positions from velocities, gravity and external forces (pinned particles keep
+    /// still), keeping the start positions in `prev`. Per particle, so any split of the
+    /// particles gives the same bits.
+    fn predict(&self, x: &mut [Vec4], v: &mut [Vec4], f: &[Vec4], prev: &mut [Vec4]) {
+        let Self { h, damp, g } = *self;
+        for (((x, v), f), prev) in x.iter_mut().zip(v).zip(f).zip(prev) {
+            let w = x.w;
+            let free = if w > 0.0 { 1.0 } else { 0.0 };
+            // Damping acts on the carried velocity only, so it does not weaken static loads.
+            let vel = (*v * damp + (g + *f * w) * h) * free;
+            *v = vel;
+            *prev = *x;
+            *x += vel * h;
+        }
+    }
+}
+
+/// Velocities from the substep's displacement (per particle, like [`Motion::predict`]).
+fn update_velocities(v: &mut [Vec4], x: &[Vec4], prev: &[Vec4], inv_h: f32) {
+    for ((v, x), prev) in v.iter_mut().zip(x).zip(prev) {
+        *v = (*x - *prev) * inv_h;
     }
 }
 
@@ -592,30 +626,36 @@ impl SoftBody {
         let h = s.dt / n as f32;
         let inv_h = 1.0 / h;
         let inv_h2 = inv_h * inv_h;
-        let damp = (-s.damping * h).exp();
-        let g = s.gravity.extend(0.0);
+        let motion = Motion {
+            h,
+            damp: (-s.damping * h).exp(),
+            g: s.gravity.extend(0.0),
+        };
         let colliding = !self.colliders.is_empty();
+        let threads = self.threads();
         if colliding {
             self.begin_contact_step();
         } else {
             // No contact this step (the last collider may just have been removed).
             self.contact.touched.fill(false);
         }
+        // Particles per thread when the particle loops are split.
+        let c = self.positions.len().div_ceil(threads).max(1);
         for sub in 0..n {
-            for (((x, v), f), prev) in self
-                .positions
-                .iter_mut()
-                .zip(self.velocities.iter_mut())
-                .zip(&self.forces)
-                .zip(self.prev.iter_mut())
-            {
-                let w = x.w;
-                let free = if w > 0.0 { 1.0 } else { 0.0 };
-                // Damping acts on the carried velocity only, so it does not weaken static loads.
-                let vel = (*v * damp + (g + *f * w) * h) * free;
-                *v = vel;
-                *prev = *x;
-                *x += vel * h;
+            if threads > 1 {
+                self.positions
+                    .par_chunks_mut(c)
+                    .zip(self.velocities.par_chunks_mut(c))
+                    .zip(self.forces.par_chunks(c))
+                    .zip(self.prev.par_chunks_mut(c))
+                    .for_each(|(((x, v), f), prev)| motion.predict(x, v, f, prev));
+            } else {
+                motion.predict(
+                    &mut self.positions,
+                    &mut self.velocities,
+                    &self.forces,
+                    &mut self.prev,
+                );
             }
             let t = (sub + 1) as f32 / n as f32;
             for a in &self.anchors {
@@ -629,10 +669,27 @@ impl SoftBody {
             }
             self.links.reset_lambdas();
             self.groups.reset_lambdas();
-            for _ in 0..s.iterations {
-                self.links.solve(self.kernel, &mut self.positions, inv_h2);
-                if !self.groups.is_empty() {
-                    self.groups.solve(&mut self.positions, inv_h2);
+            if threads > 1 {
+                let groups = &mut self.groups;
+                self.links.sweeps_split(
+                    self.kernel,
+                    &mut self.positions,
+                    inv_h2,
+                    s.iterations,
+                    s.parallel_min_links as usize,
+                    threads,
+                    |p| {
+                        if !groups.is_empty() {
+                            groups.solve(p, inv_h2);
+                        }
+                    },
+                );
+            } else {
+                for _ in 0..s.iterations {
+                    self.links.solve(self.kernel, &mut self.positions, inv_h2);
+                    if !self.groups.is_empty() {
+                        self.groups.solve(self.positions.as_mut_slice(), inv_h2);
+                    }
                 }
             }
             if colliding {
@@ -644,19 +701,32 @@ impl SoftBody {
                     &mut self.contact,
                 );
             }
-            for ((v, x), prev) in self
-                .velocities
-                .iter_mut()
-                .zip(&self.positions)
-                .zip(&self.prev)
-            {
-                *v = (*x - *prev) * inv_h;
+            if threads > 1 {
+                self.velocities
+                    .par_chunks_mut(c)
+                    .zip(self.positions.par_chunks(c))
+                    .zip(self.prev.par_chunks(c))
+                    .for_each(|((v, x), prev)| update_velocities(v, x, prev, inv_h));
+            } else {
+                update_velocities(&mut self.velocities, &self.positions, &self.prev, inv_h);
             }
         }
         for a in &mut self.anchors {
             a.start = a.target;
         }
         self.colliders.end_step();
+    }
+
+    /// How many threads the coming step splits its work over: the current rayon pool's when
+    /// some colour batch has at least [`SolverSettings::parallel_min_links`] links (never
+    /// asking rayon otherwise, so a small body does not start the global pool), else 1.
+    fn threads(&self) -> usize {
+        let min = self.settings.parallel_min_links as usize;
+        if min == 0 || self.links.max_batch_len() < min.max(crate::links::MIN_SPLIT) {
+            1
+        } else {
+            rayon::current_num_threads()
+        }
     }
 
     /// The contact broad phase for the coming step: how far a particle can get in one step

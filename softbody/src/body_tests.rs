@@ -12,6 +12,7 @@ fn settings() -> SolverSettings {
         iterations: 20,
         gravity: Vec3::new(0.0, -9.81, 0.0),
         damping: 0.1,
+        ..SolverSettings::default()
     }
 }
 
@@ -230,6 +231,7 @@ fn chain_compliance_is_resolution_independent() {
             substeps: 4,
             iterations: 20,
             dt: 1.0 / 60.0,
+            ..SolverSettings::default()
         };
         let mut b = SoftBody::new(s).unwrap();
         let mat = Material {
@@ -370,14 +372,7 @@ fn every_kernel_path_steps_like_scalar() {
         assert_eq!(body.kernel_path(), path);
         for step in 0..12 {
             if step == 4 {
-                let ids: Vec<LinkId> = body.links().map(|l| l.id).step_by(7).collect();
-                for (k, id) in ids.into_iter().enumerate() {
-                    if k % 2 == 0 {
-                        body.remove_link(id).unwrap();
-                    } else {
-                        body.set_link_weight(id, 0.3).unwrap();
-                    }
-                }
+                thin_links(&mut body, 7, 0.3);
             }
             body.step();
         }
@@ -394,5 +389,88 @@ fn every_kernel_path_steps_like_scalar() {
             body.set_kernel_path(p),
             Err(SoftBodyError::UnsupportedKernel(_))
         ));
+    }
+}
+
+/// Of every `every`-th link (in solve order), removes half and gives the others `weight`.
+fn thin_links(body: &mut SoftBody, every: usize, weight: f32) {
+    let ids: Vec<LinkId> = body.links().map(|l| l.id).step_by(every).collect();
+    for (k, id) in ids.into_iter().enumerate() {
+        if k % 2 == 0 {
+            body.remove_link(id).unwrap();
+        } else {
+            body.set_link_weight(id, weight).unwrap();
+        }
+    }
+}
+
+/// Runs `f` on a rayon pool of `threads` threads (what a host does to choose the threads).
+pub(crate) fn on_pool<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
+/// Splitting the colour batches and particle loops across threads changes no bit: the same
+/// body (every batch split, an ordered overflow batch from a 70-link hub, a collider, links
+/// removed and reweighted midway) steps to identical positions and velocities on 1, 2 and 4 threads, and
+/// with splitting switched off.
+#[test]
+fn threads_step_bit_identically() {
+    let (_, mut reference) = net(23);
+    let hub = reference
+        .add_particle(Vec3::new(0.5, 0.3, 0.5), 0.01)
+        .unwrap();
+    for k in 0..70u32 {
+        let p = ParticleId::from_raw(k * 7);
+        reference.add_link(hub, p, 0.6, 1e-4).unwrap();
+    }
+    // A sphere under the middle, so the contact pass runs between the split sweeps.
+    reference
+        .colliders_mut()
+        .add(ColliderDesc {
+            shape: Shape::Sphere { radius: 0.15 },
+            transform: Transform::from_position(Vec3::new(0.5, -0.2, 0.5)),
+            ..ColliderDesc::default()
+        })
+        .unwrap();
+    let run = |min_links: u32, threads: usize| {
+        let mut body = reference.clone();
+        body.set_settings(SolverSettings {
+            parallel_min_links: min_links,
+            substeps: 3,
+            iterations: 4,
+            ..settings()
+        })
+        .unwrap();
+        on_pool(threads, || {
+            for step in 0..10 {
+                if step == 4 {
+                    thin_links(&mut body, 5, 0.4);
+                }
+                body.step();
+            }
+        });
+        body.check_links();
+        assert!(
+            body.touched_all().iter().any(|&t| t),
+            "the sphere was reached"
+        );
+        (bits(body.positions()), bits(body.velocities()))
+    };
+    let sequential = run(0, 1);
+    assert!(
+        reference.link_count() > 64 * 2 * 16,
+        "batches large enough to split"
+    );
+    for threads in [1, 2, 4] {
+        for min_links in [1, 200] {
+            assert!(
+                run(min_links, threads) == sequential,
+                "{threads} threads, parallel_min_links {min_links}"
+            );
+        }
     }
 }

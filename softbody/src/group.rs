@@ -14,7 +14,7 @@
 //! small sequential pass after the coloured batches, in creation order (deterministic).
 //! All links of one group share one blend weight.
 
-use crate::kernel::{DENOM_FLOOR, LENGTH_FLOOR};
+use crate::kernel::{DENOM_FLOOR, LENGTH_FLOOR, Particles};
 use glam::{Vec3A, Vec4};
 
 /// Handle of a group in a body's group table.
@@ -52,19 +52,19 @@ impl Group {
     }
 
     /// One sequential sweep over this group's links.
-    pub(crate) fn solve(&mut self, p: &mut [Vec4], inv_h2: f32) {
+    pub(crate) fn solve<P: Particles + ?Sized>(&mut self, p: &mut P, inv_h2: f32) {
         let mut w_group = 0.0f32;
         for (&m, &f) in self.members.iter().zip(&self.fractions) {
-            w_group += f * f * p[m as usize].w;
+            w_group += f * f * p.get(m as usize).w;
         }
         let weight = self.weight;
         for t in &mut self.targets {
             // The centroid moves with every target solved, so recompute it (groups are small).
             let mut c = Vec3A::ZERO;
             for (&m, &f) in self.members.iter().zip(&self.fractions) {
-                c += Vec3A::from_vec4(p[m as usize]) * f;
+                c += Vec3A::from_vec4(p.get(m as usize)) * f;
             }
-            let q = p[t.particle as usize];
+            let q = p.get(t.particle as usize);
             let d = Vec3A::from_vec4(q) - c;
             let len = d.length().max(LENGTH_FLOOR);
             let wq = q.w;
@@ -74,10 +74,10 @@ impl Group {
                 (-(weight * cc) - at * t.lambda) / (weight * (wq + w_group) + at).max(DENOM_FLOOR);
             t.lambda += dl;
             let n = (d * (dl / len)).extend(0.0);
-            p[t.particle as usize] = q + n * wq;
+            p.set(t.particle as usize, q + n * wq);
             for (&m, &f) in self.members.iter().zip(&self.fractions) {
-                let pm = p[m as usize];
-                p[m as usize] = pm - n * (pm.w * f);
+                let pm = p.get(m as usize);
+                p.set(m as usize, pm - n * (pm.w * f));
             }
         }
     }
@@ -152,7 +152,7 @@ impl GroupStore {
         }
     }
 
-    pub(crate) fn solve(&mut self, p: &mut [Vec4], inv_h2: f32) {
+    pub(crate) fn solve<P: Particles + ?Sized>(&mut self, p: &mut P, inv_h2: f32) {
         for g in self.groups.iter_mut().filter(|g| g.live) {
             g.solve(p, inv_h2);
         }

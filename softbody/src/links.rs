@@ -19,13 +19,23 @@
 //! whose order matters, removes in order (O(overflow length)), as the paper does.
 
 use crate::ids::{LinkId, ParticleId};
-use crate::kernel::{self, Block, KernelPath, LANES};
+use crate::kernel::{self, Block, KernelPath, LANES, SharedParticles};
+use crate::team;
 use glam::Vec4;
+use std::sync::{Mutex, PoisonError};
 
 /// Number of colours tracked by the per-particle masks.
 const COLOURS: usize = 64;
 /// Batch index used for the ordered overflow batch in a link's slot.
 const OVERFLOW: u32 = COLOURS as u32;
+/// The fewest links a colour batch must have to be split across threads (two blocks), whatever
+/// `SolverSettings::parallel_min_links` says.
+pub(crate) const MIN_SPLIT: usize = 2 * LANES;
+/// Runs a split batch is cut into per thread: more than one, so that when a thread is late (its
+/// core taken by another process) the others take over its share instead of waiting, and few
+/// enough that claiming a run (an atomic read-and-raise of its flag and an uncontended lock)
+/// stays negligible.
+const RUNS_PER_THREAD: usize = 4;
 /// Slot marker of a free link id.
 const FREE: u32 = u32::MAX;
 
@@ -429,6 +439,86 @@ impl LinkStore {
         if self.overflow.len > 0 {
             kernel::solve_ordered(p, &mut self.overflow.blocks, self.overflow.len, inv_h2);
         }
+    }
+
+    /// The largest colour batch (0 without links): whether any batch is worth splitting.
+    pub(crate) fn max_batch_len(&self) -> usize {
+        self.batches.iter().map(Batch::len).max().unwrap_or(0)
+    }
+
+    /// `sweeps` sweeps like [`LinkStore::solve`], each followed by `after_sweep` (the group
+    /// links), with every colour batch of at least `min_links` links cut into runs of whole
+    /// blocks ([`RUNS_PER_THREAD`] per thread) shared out by a [`team`] on the current rayon
+    /// pool; smaller batches, the ordered overflow batch and `after_sweep` run on the calling
+    /// thread, between phases.
+    /// Gives exactly the bits of the sequential sweeps: inside a batch each link reads and
+    /// writes only its own two particles, so which thread solves it, and when, changes nothing.
+    #[allow(unsafe_code)]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn sweeps_split(
+        &mut self,
+        path: KernelPath,
+        p: &mut [Vec4],
+        inv_h2: f32,
+        sweeps: u32,
+        min_links: usize,
+        threads: usize,
+        mut after_sweep: impl FnMut(&mut SharedParticles<'_>) + Send,
+    ) {
+        let parts = (threads * RUNS_PER_THREAD).clamp(1, team::MAX_RUNS);
+        let min_links = min_links.max(MIN_SPLIT);
+        // Every batch as runs of whole blocks (one run when it is too small to split); the
+        // mutexes are never contended (each run is claimed once per phase), they only hand a
+        // run's blocks to whichever thread claimed it.
+        let mut runs: Vec<Mutex<(&mut [Block], usize)>> = Vec::new();
+        let mut plan: Vec<(usize, usize)> = Vec::with_capacity(self.batches.len());
+        for bt in &mut self.batches {
+            let len = bt.len;
+            let n = if len >= min_links { parts } else { 1 };
+            let per = bt.blocks.len().div_ceil(n).max(1);
+            let start = runs.len();
+            for (c, blocks) in bt.blocks.chunks_mut(per).enumerate() {
+                let run_len = (len - c * per * LANES).min(blocks.len() * LANES);
+                runs.push(Mutex::new((blocks, run_len)));
+            }
+            plan.push((start, runs.len() - start));
+        }
+        let overflow = &mut self.overflow;
+        // SAFETY: copies of this view are used (a) by the runs of one phase at a time, which
+        // solve disjoint pieces of one colour batch, and (b) by the leader between phases
+        // (single-run batches, the overflow batch, `after_sweep`), when no run is in flight
+        // (`Leader::phase` returns only after every run it published is done, and helpers touch
+        // particles only inside a claimed run). No colour batch holds two links sharing a
+        // particle: `insert` puts a link in colour `c` only when neither end has bit `c` in its
+        // colour mask and sets the bit on both ends; the bit is cleared only when that link
+        // leaves the batch (`remove`, `remove_all_of`); `move_particle` renames a particle that
+        // has no links left; `renumber` rebuilds through `insert` (all checked by
+        // `LinkStore::check` in tests). So no particle is written by one thread while another
+        // touches it, as `SharedParticles::new` requires; every copy is dropped when
+        // `team::run` returns, having joined its helpers.
+        let shared = unsafe { SharedParticles::new(p) };
+        let work = |run: usize| {
+            let mut guard = runs[run].lock().unwrap_or_else(PoisonError::into_inner);
+            let (blocks, len) = &mut *guard;
+            let mut view = shared;
+            kernel::solve_batch(path, &mut view, blocks, *len, inv_h2);
+        };
+        team::run(threads - 1, parts, &work, |leader| {
+            let mut view = shared;
+            for _ in 0..sweeps {
+                for &(start, count) in &plan {
+                    match count {
+                        0 => {}
+                        1 => work(start),
+                        _ => leader.phase(start, count),
+                    }
+                }
+                if overflow.len > 0 {
+                    kernel::solve_ordered(&mut view, &mut overflow.blocks, overflow.len, inv_h2);
+                }
+                after_sweep(&mut view);
+            }
+        });
     }
 
     /// Iterates over all live links (batch order).

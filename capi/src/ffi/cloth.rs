@@ -45,6 +45,10 @@ pub struct SlodSolverDesc {
     pub stretch_compliance: f32,
     /// Steps over which a refine or coarse blends old links out and new ones in, 0..=65536.
     pub blend_steps: u32,
+    /// A colour batch of at least this many links is split across the world's worker threads
+    /// (same results, bit for bit); 0 = one thread. Ignored (one thread) in a world created with
+    /// `worker_threads` 1. The default splits cloths of about 129×129 vertices and up.
+    pub parallel_min_links: u32,
 }
 
 /// How to build a cloth. Get one from `slod_default_cloth_desc` and change what you need.
@@ -169,6 +173,7 @@ pub extern "C" fn slod_default_cloth_desc() -> SlodClothDesc {
             damping: s.solver.damping,
             stretch_compliance: s.material.stretch_compliance,
             blend_steps: s.blend_steps,
+            parallel_min_links: s.solver.parallel_min_links,
         },
         initial_level: 1,
     }
@@ -246,6 +251,17 @@ fn check_u32(v: u32, lo: u32, hi: u32, name: &'static str) -> Result<(), FfiErro
 }
 
 impl SlodSolverDesc {
+    /// [`SlodSolverDesc::to_settings`] as `world` runs them: one thread in a world created with
+    /// one worker thread (whose cloths must not touch rayon's process-wide pool, e.g. after
+    /// `fork`).
+    fn to_world_settings(self, world: &SlodWorld) -> Result<TreeCutSettings, FfiError> {
+        let mut settings = self.to_settings()?;
+        if !world.parallel_allowed() {
+            settings.solver.parallel_min_links = 0;
+        }
+        Ok(settings)
+    }
+
     pub(super) fn to_settings(self) -> Result<TreeCutSettings, FfiError> {
         in_range(self.dt, f32::MIN_POSITIVE, 1.0, "desc.solver.dt")?;
         check_u32(self.substeps, 1, 1024, "desc.solver.substeps")?;
@@ -272,6 +288,7 @@ impl SlodSolverDesc {
                 iterations: self.iterations,
                 gravity: Vec3::from(self.gravity),
                 damping: self.damping,
+                parallel_min_links: self.parallel_min_links,
             },
             material: Material {
                 stretch_compliance: self.stretch_compliance,
@@ -408,7 +425,7 @@ pub unsafe extern "C" fn slod_cloth_create_grid(
         // SAFETY: caller contract: NULL or a valid desc.
         let desc = unsafe { read_desc(desc) }?;
         let spec = desc.grid_spec()?;
-        let settings = desc.solver.to_settings()?;
+        let settings = desc.solver.to_world_settings(world)?;
         if out_cloth.is_null() {
             return Err(FfiError::Null("out_cloth"));
         }
@@ -453,7 +470,7 @@ pub unsafe extern "C" fn slod_cloth_create_mesh(
         let world = unsafe { arg_mut(world, "world") }?;
         // SAFETY: caller contract: NULL or a valid desc.
         let desc = unsafe { read_desc(desc) }?;
-        let settings = desc.solver.to_settings()?;
+        let settings = desc.solver.to_world_settings(world)?;
         // Sizes first: a huge count is refused before its pointer is touched.
         if vertex_count < 3 || vertex_count > SLOD_MAX_CLOTH_VERTICES as usize {
             return Err(FfiError::invalid(

@@ -330,6 +330,8 @@ pub(crate) fn bullet_like(size: u32, steps: u32) -> Result<BulletLike, DemoError
         iterations: 20,
         gravity: Vec3::new(0.0, -9.81, 0.0),
         damping: 0.0,
+        // One thread, like the single-threaded Bullet solver it is compared with.
+        parallel_min_links: 0,
     };
     let mut body = pinned(grid.build_bullet(settings)?, &grid)?;
     let ms = median_step_ms(&mut || body.step(), 30, steps);

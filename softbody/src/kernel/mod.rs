@@ -54,8 +54,32 @@
 
 use glam::{Mat4, Vec4};
 
+mod shared;
 #[cfg(target_arch = "x86_64")]
 mod x86;
+
+pub(crate) use shared::SharedParticles;
+
+/// Where a kernel reads and writes particles: a plain slice (one thread owns them all), or a
+/// [`SharedParticles`] view through which several threads solve disjoint parts of one colour
+/// batch. Monomorphised, so the slice path compiles to what it did before the trait existed.
+pub(crate) trait Particles {
+    /// Particle `i` (panics if out of range).
+    fn get(&self, i: usize) -> Vec4;
+    /// Overwrites particle `i` (panics if out of range).
+    fn set(&mut self, i: usize, v: Vec4);
+}
+
+impl Particles for [Vec4] {
+    #[inline(always)]
+    fn get(&self, i: usize) -> Vec4 {
+        self[i]
+    }
+    #[inline(always)]
+    fn set(&mut self, i: usize, v: Vec4) {
+        self[i] = v;
+    }
+}
 
 /// Floor for the constraint denominator `w·W + α̃` (two pinned ends with zero compliance).
 pub(crate) const DENOM_FLOOR: f32 = 1e-12;
@@ -177,10 +201,10 @@ pub(crate) struct Lane {
 
 /// Solves lane `k` of a block alone; the reference arithmetic that every path reproduces.
 #[inline(always)]
-pub(crate) fn solve_lane(p: &mut [Vec4], blk: &mut Block, k: usize, inv_h2: f32) {
+pub(crate) fn solve_lane<P: Particles + ?Sized>(p: &mut P, blk: &mut Block, k: usize, inv_h2: f32) {
     let (ia, ib) = (blk.a[k] as usize, blk.b[k] as usize);
-    let pa = p[ia];
-    let pb = p[ib];
+    let pa = p.get(ia);
+    let pb = p.get(ib);
     let (dx, dy, dz) = (pb.x - pa.x, pb.y - pa.y, pb.z - pa.z);
     let len = (dx * dx + dy * dy + dz * dz).sqrt().max(LENGTH_FLOOR);
     let (weight, lambda) = (blk.weight[k], blk.lambda[k]);
@@ -192,8 +216,14 @@ pub(crate) fn solve_lane(p: &mut [Vec4], blk: &mut Block, k: usize, inv_h2: f32)
     blk.lambda[k] = lambda - s * len;
     let (sa, sb) = (pa.w * s, pb.w * s);
     // The fourth lane (the inverse mass) is kept as it is.
-    p[ia] = Vec4::new(pa.x + dx * sa, pa.y + dy * sa, pa.z + dz * sa, pa.w);
-    p[ib] = Vec4::new(pb.x - dx * sb, pb.y - dy * sb, pb.z - dz * sb, pb.w);
+    p.set(
+        ia,
+        Vec4::new(pa.x + dx * sa, pa.y + dy * sa, pa.z + dz * sa, pa.w),
+    );
+    p.set(
+        ib,
+        Vec4::new(pb.x - dx * sb, pb.y - dy * sb, pb.z - dz * sb, pb.w),
+    );
 }
 
 /// Lane-wise square root (SSE `sqrtps` once LLVM merges the lanes; IEEE-exact either way).
@@ -204,12 +234,12 @@ fn sqrt4(v: Vec4) -> Vec4 {
 
 /// Lanes `o..o + 4` of a block, in 128-bit registers: gather, transpose, compute, scatter.
 #[inline(always)]
-fn solve_quad(p: &mut [Vec4], blk: &mut Block, o: usize, inv_h2: f32) {
+fn solve_quad<P: Particles + ?Sized>(p: &mut P, blk: &mut Block, o: usize, inv_h2: f32) {
     let ia = [0, 1, 2, 3].map(|k| blk.a[o + k] as usize);
     let ib = [0, 1, 2, 3].map(|k| blk.b[o + k] as usize);
     // Columns are particles; after the transpose the columns are x, y, z, w of four particles.
-    let ta = Mat4::from_cols(p[ia[0]], p[ia[1]], p[ia[2]], p[ia[3]]).transpose();
-    let tb = Mat4::from_cols(p[ib[0]], p[ib[1]], p[ib[2]], p[ib[3]]).transpose();
+    let ta = Mat4::from_cols(p.get(ia[0]), p.get(ia[1]), p.get(ia[2]), p.get(ia[3])).transpose();
+    let tb = Mat4::from_cols(p.get(ib[0]), p.get(ib[1]), p.get(ib[2]), p.get(ib[3])).transpose();
     let (ax, ay, az, aw) = (ta.x_axis, ta.y_axis, ta.z_axis, ta.w_axis);
     let (bx, by, bz, bw) = (tb.x_axis, tb.y_axis, tb.z_axis, tb.w_axis);
     let lane = |v: &[f32; LANES]| Vec4::new(v[o], v[o + 1], v[o + 2], v[o + 3]);
@@ -226,15 +256,15 @@ fn solve_quad(p: &mut [Vec4], blk: &mut Block, o: usize, inv_h2: f32) {
     let na = Mat4::from_cols(ax + dx * sa, ay + dy * sa, az + dz * sa, aw).transpose();
     let nb = Mat4::from_cols(bx - dx * sb, by - dy * sb, bz - dz * sb, bw).transpose();
     for k in 0..4 {
-        p[ia[k]] = na.col(k);
-        p[ib[k]] = nb.col(k);
+        p.set(ia[k], na.col(k));
+        p.set(ib[k], nb.col(k));
     }
 }
 
 /// One sweep over a batch of `len` links (in `blocks`) that share no particle.
-pub(crate) fn solve_batch(
+pub(crate) fn solve_batch<P: Particles + ?Sized>(
     path: KernelPath,
-    p: &mut [Vec4],
+    p: &mut P,
     blocks: &mut [Block],
     len: usize,
     inv_h2: f32,
@@ -265,7 +295,12 @@ pub(crate) fn solve_batch(
 }
 
 /// One sweep over links that may share particles: strictly in order, one lane at a time.
-pub(crate) fn solve_ordered(p: &mut [Vec4], blocks: &mut [Block], len: usize, inv_h2: f32) {
+pub(crate) fn solve_ordered<P: Particles + ?Sized>(
+    p: &mut P,
+    blocks: &mut [Block],
+    len: usize,
+    inv_h2: f32,
+) {
     for i in 0..len {
         solve_lane(p, &mut blocks[i / LANES], i % LANES, inv_h2);
     }

@@ -76,12 +76,18 @@ fn every_path_matches_scalar_bitwise() {
         let (p0, b0) = batch(seed, 2 * len + 9, len);
         let (mut p_ref, mut b_ref) = (p0.clone(), b0.clone());
         for _ in 0..5 {
-            solve_batch(KernelPath::Scalar, &mut p_ref, &mut b_ref, len, 3600.0);
+            solve_batch(
+                KernelPath::Scalar,
+                p_ref.as_mut_slice(),
+                &mut b_ref,
+                len,
+                3600.0,
+            );
         }
         for &path in &paths {
             let (mut p, mut b) = (p0.clone(), b0.clone());
             for _ in 0..5 {
-                solve_batch(path, &mut p, &mut b, len, 3600.0);
+                solve_batch(path, p.as_mut_slice(), &mut b, len, 3600.0);
             }
             assert_eq!(bits(&p), bits(&p_ref), "{path:?}, {len} links");
             let lam = |b: &[Block]| -> Vec<u32> {
@@ -101,7 +107,7 @@ fn every_path_matches_scalar_bitwise() {
 fn scalar_reference_properties() {
     let (p0, b0) = batch(9, 80, 32);
     let (mut p, mut b) = (p0.clone(), b0.clone());
-    solve_batch(KernelPath::Scalar, &mut p, &mut b, 32, 3600.0);
+    solve_batch(KernelPath::Scalar, p.as_mut_slice(), &mut b, 32, 3600.0);
     assert!(
         p.iter()
             .zip(&p0)

@@ -1,14 +1,15 @@
 //! The AVX2 and AVX-512F block kernels (x86-64), selected at run time.
 //!
-//! # The one exception to `forbid(unsafe_code)`
+//! # An exception to `deny(unsafe_code)`
 //! A function compiled for a CPU feature (`#[target_feature]`) may only be called once the CPU
-//! is known to have it, and Rust makes that call `unsafe`. This module holds the crate's only
-//! two `unsafe` blocks: each calls its kernel right after `is_x86_feature_detected!` confirmed
+//! is known to have it, and Rust makes that call `unsafe`. This module holds two `unsafe` blocks
+//! (the others are the shared particle view of `shared.rs`): each calls its kernel right after `is_x86_feature_detected!` confirmed
 //! the feature. Everything else here is safe code: since Rust 1.87 (1.89 for AVX-512) the `std::arch` value
 //! intrinsics are safe inside a function compiled with their feature, particles move between
 //! `glam::Vec4` and `__m128` through `glam`'s safe conversions, and link data is read from and
-//! written to the block's arrays by value. Every particle access is a checked slice index, so
-//! a bad index panics instead of reading out of bounds.
+//! written to the block's arrays by value. Every particle access goes through
+//! [`Particles`](super::Particles), a checked slice index either way, so a bad index panics
+//! instead of reading out of bounds.
 //!
 //! # Layout in registers
 //! Register `r_j` (`j` = 0..3) holds, in its 128-bit lane `L`, the particle of link `4L + j`.
@@ -18,13 +19,17 @@
 //! inverse, which puts the results back for the scatter.
 #![allow(unsafe_code)]
 
-use super::{Block, DENOM_FLOOR, LANES, LENGTH_FLOOR};
+use super::{Block, DENOM_FLOOR, LANES, LENGTH_FLOOR, Particles};
 use glam::Vec4;
 use std::arch::x86_64::*;
 
 /// Solves every block of `blocks` with AVX-512F; returns the number solved (0 if the CPU
 /// lacks AVX-512F, leaving them to the caller's scalar loop).
-pub(super) fn blocks_avx512(p: &mut [Vec4], blocks: &mut [Block], inv_h2: f32) -> usize {
+pub(super) fn blocks_avx512<P: Particles + ?Sized>(
+    p: &mut P,
+    blocks: &mut [Block],
+    inv_h2: f32,
+) -> usize {
     if !is_x86_feature_detected!("avx512f") {
         return 0;
     }
@@ -35,7 +40,11 @@ pub(super) fn blocks_avx512(p: &mut [Vec4], blocks: &mut [Block], inv_h2: f32) -
 }
 
 /// Solves every block of `blocks` with AVX2; returns the number solved (0 if the CPU lacks AVX2).
-pub(super) fn blocks_avx2(p: &mut [Vec4], blocks: &mut [Block], inv_h2: f32) -> usize {
+pub(super) fn blocks_avx2<P: Particles + ?Sized>(
+    p: &mut P,
+    blocks: &mut [Block],
+    inv_h2: f32,
+) -> usize {
     if !is_x86_feature_detected!("avx2") {
         return 0;
     }
@@ -46,7 +55,7 @@ pub(super) fn blocks_avx2(p: &mut [Vec4], blocks: &mut [Block], inv_h2: f32) -> 
 }
 
 #[target_feature(enable = "avx512f")]
-fn run_avx512(p: &mut [Vec4], blocks: &mut [Block], inv_h2: f32) {
+fn run_avx512<P: Particles + ?Sized>(p: &mut P, blocks: &mut [Block], inv_h2: f32) {
     for blk in blocks {
         block_avx512(p, blk, inv_h2);
     }
@@ -101,8 +110,8 @@ macro_rules! transpose {
 /// Gathers the particles of sixteen links: `x, y, z, w` registers in link order.
 macro_rules! gather16 {
     ($p:expr, $idx:expr) => {{
-        let (p, idx): (&[Vec4], &[u32; LANES]) = ($p, $idx);
-        let at = |k: usize| -> __m128 { p[idx[k] as usize].into() };
+        let (p, idx): (&P, &[u32; LANES]) = (&*$p, $idx);
+        let at = |k: usize| -> __m128 { p.get(idx[k] as usize).into() };
         let row = |j: usize| {
             let v = _mm512_castps128_ps512(at(j));
             let v = _mm512_insertf32x4::<1>(v, at(4 + j));
@@ -121,7 +130,7 @@ macro_rules! gather16 {
 /// Writes `x, y, z, w` registers back to the particles of sixteen links.
 macro_rules! scatter16 {
     ($p:expr, $idx:expr, $xyzw:expr) => {{
-        let (p, idx): (&mut [Vec4], &[u32; LANES]) = ($p, $idx);
+        let (p, idx): (&mut P, &[u32; LANES]) = ($p, $idx);
         let r = transpose!(
             $xyzw,
             _mm512_unpacklo_ps,
@@ -129,10 +138,19 @@ macro_rules! scatter16 {
             _mm512_shuffle_ps
         );
         for j in 0..4 {
-            p[idx[j] as usize] = _mm512_extractf32x4_ps::<0>(r[j]).into();
-            p[idx[4 + j] as usize] = _mm512_extractf32x4_ps::<1>(r[j]).into();
-            p[idx[8 + j] as usize] = _mm512_extractf32x4_ps::<2>(r[j]).into();
-            p[idx[12 + j] as usize] = _mm512_extractf32x4_ps::<3>(r[j]).into();
+            p.set(idx[j] as usize, _mm512_extractf32x4_ps::<0>(r[j]).into());
+            p.set(
+                idx[4 + j] as usize,
+                _mm512_extractf32x4_ps::<1>(r[j]).into(),
+            );
+            p.set(
+                idx[8 + j] as usize,
+                _mm512_extractf32x4_ps::<2>(r[j]).into(),
+            );
+            p.set(
+                idx[12 + j] as usize,
+                _mm512_extractf32x4_ps::<3>(r[j]).into(),
+            );
         }
     }};
 }
@@ -176,7 +194,7 @@ macro_rules! solve_registers {
 
 #[target_feature(enable = "avx512f")]
 #[inline]
-fn block_avx512(p: &mut [Vec4], blk: &mut Block, inv_h2: f32) {
+fn block_avx512<P: Particles + ?Sized>(p: &mut P, blk: &mut Block, inv_h2: f32) {
     let (lambda, na, nb) = solve_registers!(
         gather16!(p, &blk.a), gather16!(p, &blk.b), load16(&blk.rest),
         load16(&blk.compliance), load16(&blk.weight), load16(&blk.lambda), inv_h2;
@@ -217,8 +235,8 @@ fn store8(v: __m256, out: &mut [f32; LANES], o: usize) {
 /// Gathers the particles of links `o..o + 8`: `x, y, z, w` registers in link order.
 macro_rules! gather8 {
     ($p:expr, $idx:expr, $o:expr) => {{
-        let (p, idx, o): (&[Vec4], &[u32; LANES], usize) = ($p, $idx, $o);
-        let at = |k: usize| -> __m128 { p[idx[o + k] as usize].into() };
+        let (p, idx, o): (&P, &[u32; LANES], usize) = (&*$p, $idx, $o);
+        let at = |k: usize| -> __m128 { p.get(idx[o + k] as usize).into() };
         let row = |j: usize| _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(at(j)), at(4 + j));
         transpose!(
             [row(0), row(1), row(2), row(3)],
@@ -232,7 +250,7 @@ macro_rules! gather8 {
 /// Writes `x, y, z, w` registers back to the particles of links `o..o + 8`.
 macro_rules! scatter8 {
     ($p:expr, $idx:expr, $o:expr, $xyzw:expr) => {{
-        let (p, idx, o): (&mut [Vec4], &[u32; LANES], usize) = ($p, $idx, $o);
+        let (p, idx, o): (&mut P, &[u32; LANES], usize) = ($p, $idx, $o);
         let r = transpose!(
             $xyzw,
             _mm256_unpacklo_ps,
@@ -240,8 +258,11 @@ macro_rules! scatter8 {
             _mm256_shuffle_ps
         );
         for j in 0..4 {
-            p[idx[o + j] as usize] = _mm256_castps256_ps128(r[j]).into();
-            p[idx[o + 4 + j] as usize] = _mm256_extractf128_ps::<1>(r[j]).into();
+            p.set(idx[o + j] as usize, _mm256_castps256_ps128(r[j]).into());
+            p.set(
+                idx[o + 4 + j] as usize,
+                _mm256_extractf128_ps::<1>(r[j]).into(),
+            );
         }
     }};
 }
@@ -261,7 +282,7 @@ fn solve8(blk: &Block, o: usize, a: [__m256; 4], b: [__m256; 4], inv_h2: f32) ->
 }
 
 #[target_feature(enable = "avx2")]
-fn run_avx2(p: &mut [Vec4], blocks: &mut [Block], inv_h2: f32) {
+fn run_avx2<P: Particles + ?Sized>(p: &mut P, blocks: &mut [Block], inv_h2: f32) {
     for blk in blocks {
         // The two halves are independent (a batch's links share no particle): gathering both
         // before solving either gives the core two dependency chains to overlap.

@@ -28,6 +28,7 @@ fn settings(gravity: bool) -> TreeCutSettings {
             dt: 1.0 / 60.0,
             substeps: 1,
             iterations: 10,
+            ..SolverSettings::default()
         },
         material: Material::default(),
         blend_steps: 4,
@@ -264,6 +265,39 @@ fn random_runs_are_bit_identical() {
         (bits(tc.particle_positions()), tc.particle_nodes().to_vec())
     };
     assert_eq!(run(), run());
+}
+
+/// A TreeCut body stepped with its batches split across 2 or 4 threads, through random refines
+/// and coarses (group links, particles coming and going, renumbering), stays bit-identical to
+/// the same run on one thread.
+#[test]
+fn threads_keep_random_runs_bit_identical() {
+    let run = |threads: usize| {
+        let mut tc = body(33, 1, true);
+        assert!(tc.body().batch_sizes().iter().any(|&n| n >= 4 * 32));
+        let solver = SolverSettings {
+            parallel_min_links: 1,
+            ..tc.settings().solver
+        };
+        tc.set_solver_settings(solver).unwrap();
+        pin_corners(&mut tc, 33);
+        let mut rng = Rng::new(7);
+        crate::body_tests::on_pool(threads, || {
+            for _ in 0..120 {
+                random_op(&mut tc, &mut rng);
+                tc.step();
+            }
+        });
+        tc.body().check_links();
+        (
+            bits(tc.particle_positions()),
+            bits(tc.body().velocities()),
+            tc.particle_nodes().to_vec(),
+        )
+    };
+    let one = run(1);
+    assert!(run(2) == one, "2 threads differ from 1");
+    assert!(run(4) == one, "4 threads differ from 1");
 }
 
 #[test]
