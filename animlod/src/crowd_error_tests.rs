@@ -137,6 +137,89 @@ fn error_bound_holds_on_every_bundled_rig_with_tips() {
 }
 
 #[test]
+fn interpolated_key_poses_keep_the_bound_on_every_bundled_rig() {
+    // Blending between key poses keeps every joint origin and tip within the bound on every
+    // rig in assets/gltf, every clip, near and far, and spends fewer evaluations far than near.
+    let mut report = String::new();
+    for file in BUNDLED {
+        let rig = Arc::new(crate::build::import_path(&asset(file)).unwrap());
+        for ci in 0..rig.clips().len() {
+            let clip = ClipId::new(ci);
+            if rig.clip(clip).unwrap().duration() <= 0.0 {
+                continue;
+            }
+            let mut spent = Vec::new();
+            for distance in [3.0, 30.0] {
+                let (e, s) = run_error_bound(
+                    &rig,
+                    clip,
+                    LodMode::Interpolated { max_error_px: 1.0 },
+                    distance,
+                );
+                report += &format!(
+                    "{file} clip {ci} at {distance}: max {:.2} px, mean {:.3} px, spent {:.2}\n",
+                    e.max_px, e.mean_px, s
+                );
+                // The velocity variation is sampled (8 points per 1/60 s): allow 2%.
+                assert!(e.max_px <= 1.02, "{report}");
+                spent.push(s);
+            }
+            assert!(spent[1] <= spent[0], "{report}");
+        }
+    }
+    println!("{report}");
+}
+
+#[test]
+fn key_poses_blend_to_the_model_matrices_and_name_what_changed() {
+    // A host that follows `KeyUpdate` (swap on Advanced, copy both on Restarted) keeps copies
+    // equal to the crowd's key poses, and blending them gives the model matrices.
+    let rig = Arc::new(crate::build::import_path(&asset("GDQuest_GDBot.glb")).unwrap());
+    let mut c = Crowd::new(rig.clone());
+    let ids: Vec<_> = (0..rig.clips().len())
+        .map(|i| {
+            let id = c
+                .add_character(Vec3::new(i as f32, 0.0, 0.0), ClipId::new(i))
+                .unwrap();
+            c.set_time(id, 0.1 * i as f32).unwrap();
+            id
+        })
+        .collect();
+    c.set_lod(LodMode::Interpolated { max_error_px: 1.0 })
+        .unwrap();
+    let view = view_at(40.0);
+    let mut host: Vec<[Vec<Mat4>; 2]> = ids
+        .iter()
+        .map(|&id| {
+            let k = c.key_poses(id).unwrap();
+            [k.from.to_vec(), k.to.to_vec()]
+        })
+        .collect();
+    let (mut advanced, mut unchanged) = (0, 0);
+    for _ in 0..120 {
+        c.advance(1.0 / 60.0, &view).unwrap();
+        for (&id, h) in ids.iter().zip(&mut host) {
+            let k = c.key_poses(id).unwrap();
+            match k.update {
+                KeyUpdate::Unchanged => unchanged += 1,
+                KeyUpdate::Advanced => {
+                    advanced += 1;
+                    h.swap(0, 1);
+                    h[1] = k.to.to_vec();
+                }
+                KeyUpdate::Restarted => *h = [k.from.to_vec(), k.to.to_vec()],
+            }
+            assert_eq!((&h[0][..], &h[1][..]), (k.from, k.to));
+            for ((a, b), m) in k.from.iter().zip(k.to).zip(c.model_matrices(id).unwrap()) {
+                let blended = *a + (*b - *a) * k.weight;
+                assert!(blended.abs_diff_eq(*m, 1e-5));
+            }
+        }
+    }
+    assert!(advanced > 0 && unchanged > 0, "{advanced} {unchanged}");
+}
+
+#[test]
 fn the_bound_holds_across_a_looping_wrap() {
     // The clip ends 1 rad away from where it starts: a leaf held across the wrap jumps by the
     // whole turn unless the bound accounts for it.
@@ -155,6 +238,15 @@ fn the_bound_holds_across_a_looping_wrap() {
     // speed (2 sin(ω/2)/ω = 0.96 for this 1 rad segment), so allow 2%; holding across the wrap
     // without its jump would be 1 rad off (~2 px here).
     assert!(worst <= 0.5 * 1.02, "{worst}");
+    // Key poses never interpolate across the wrap: they restart from exact poses.
+    c.set_lod(LodMode::Interpolated { max_error_px: 0.5 })
+        .unwrap();
+    let mut worst = 0.0f32;
+    for _ in 0..300 {
+        c.advance(1.0 / 60.0, &view).unwrap();
+        worst = worst.max(c.pose_error(id, &view).unwrap().max_px);
+    }
+    assert!(worst <= 0.5 * 1.02, "{worst}");
 }
 
 #[test]
@@ -172,6 +264,18 @@ fn play_once_stops_on_the_last_pose() {
     let leaf = c.model_matrices(id).unwrap()[1];
     let (_, rotation, _) = leaf.to_scale_rotation_translation();
     assert!(crate::transform::rotation_angle(rotation, Quat::from_rotation_z(1.0)) < 1e-4);
+    // With interpolated key poses too: the last key lands on the clip's end, and a finished
+    // character changes no more.
+    c.set_lod(LodMode::Interpolated { max_error_px: 1.0 })
+        .unwrap();
+    c.set_time(id, 0.5).unwrap();
+    for _ in 0..90 {
+        c.advance(1.0 / 60.0, &view).unwrap();
+    }
+    let leaf = c.model_matrices(id).unwrap()[1];
+    let (_, rotation, _) = leaf.to_scale_rotation_translation();
+    assert!(crate::transform::rotation_angle(rotation, Quat::from_rotation_z(1.0)) < 1e-4);
+    assert!(!c.pose_changed(id).unwrap());
     // A stale id is refused.
     c.remove_character(id).unwrap();
     assert!(c.set_play_once(id, false).is_err());
@@ -352,6 +456,7 @@ fn a_parallel_crowd_gives_the_serial_poses() {
             max: 40.0,
         },
         LodMode::ErrorBound { max_error_px: 1.0 },
+        LodMode::Interpolated { max_error_px: 1.0 },
     ] {
         let (mut serial, mut parallel) = (Crowd::new(rig.clone()), Crowd::new(rig.clone()));
         parallel.set_parallel(true);

@@ -42,11 +42,11 @@ mod transform;
 
 pub use build::{ImportOptions, ImportReport};
 pub use clip::{ChannelDesc, ChannelStats, Clip, ClipOptions, Interpolation, Keys, Property};
-pub use crowd::{Crowd, FrameStats, PrioritySource};
+pub use crowd::{Crowd, FrameStats, KeyPoses, KeyUpdate, PrioritySource};
 pub use error::{BuildError, CrowdError, ImportError};
 pub use ids::{BoneId, CharacterId, ClipId, SkinId};
 pub use lod::LodMode;
-pub use mesh::{SkinnedMesh, SkinningJob};
+pub use mesh::{SkinBlendJob, SkinnedMesh, SkinningJob};
 pub use pose_error::{ErrorSum, PoseError};
 pub use priority::{Factor, PriorityWeights};
 pub use rig::{Rig, Skin};

@@ -354,6 +354,10 @@ fn lod_report(lod: LodMode) -> LodReport {
             r.mode = "error_bound";
             r.max_error_px = Some(max_error_px);
         }
+        LodMode::Interpolated { max_error_px } => {
+            r.mode = "interpolated";
+            r.max_error_px = Some(max_error_px);
+        }
         LodMode::Off | LodMode::Ratio(_) | LodMode::PixelSize { .. } => r.mode = "other",
     }
     r

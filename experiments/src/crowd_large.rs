@@ -19,7 +19,8 @@ use rayon::prelude::*;
 use salience::View;
 
 use animlod::{
-    BuildError, CharacterId, ClipId, Crowd, CrowdError, ErrorSum, LodMode, Rig, SkinningJob,
+    BuildError, CharacterId, ClipId, Crowd, CrowdError, ErrorSum, KeyUpdate, LodMode, Rig,
+    SkinBlendJob, SkinId, SkinningJob,
 };
 
 use crate::crowd::rig_height;
@@ -52,13 +53,13 @@ pub struct LargeSetup {
 }
 
 impl LargeSetup {
-    /// `characters` from 2 to 200 m, error bound 1 px, 1080 px high.
+    /// `characters` from 2 to 200 m, interpolated key poses within 1 px, 1080 px high.
     pub fn new(characters: usize) -> LargeSetup {
         LargeSetup {
             characters,
             near_m: 2.0,
             far_m: 200.0,
-            lod: LodMode::ErrorBound { max_error_px: 1.0 },
+            lod: LodMode::Interpolated { max_error_px: 1.0 },
             warmup_frames: 10,
             frames: 20,
             dt: 1.0 / 60.0,
@@ -142,11 +143,27 @@ impl LargeRow {
     }
 }
 
-/// A crowd split into shards, plus each character's palette per skin.
+/// A crowd split into shards, plus each character's palettes (every skin's joints, one after
+/// the other) of its two key poses (`[from, to]`, see [`Crowd::key_poses`]; outside the
+/// interpolated mode only `to` is used).
 struct Sharded {
     shards: Vec<Crowd>,
     ids: Vec<Vec<CharacterId>>,
-    palettes: Vec<Vec<Vec<Mat4>>>,
+    palettes: Vec<Vec<[Vec<Mat4>; 2]>>,
+}
+
+/// Writes every skin's palette of a character's key pose (`later`: `to`) into `out`.
+fn key_palette(
+    crowd: &Crowd,
+    id: CharacterId,
+    later: bool,
+    out: &mut [Mat4],
+) -> Result<(), CrowdError> {
+    let mut at = 0;
+    for s in 0..crowd.rig().skins().len() {
+        at += crowd.key_skinning_matrices(id, SkinId::new(s), later, &mut out[at..])?;
+    }
+    Ok(())
 }
 
 impl Sharded {
@@ -186,11 +203,8 @@ impl Sharded {
             .map(|v| {
                 v.iter()
                     .map(|_| {
-                        rig.skins()
-                            .iter()
-                            .flat_map(|s| s.joints.iter())
-                            .map(|_| Mat4::IDENTITY)
-                            .collect()
+                        let joints: usize = rig.skins().iter().map(|s| s.joints.len()).sum();
+                        [vec![Mat4::IDENTITY; joints], vec![Mat4::IDENTITY; joints]]
                     })
                     .collect()
             })
@@ -202,8 +216,10 @@ impl Sharded {
         })
     }
 
-    /// Advances every shard and rebuilds the palettes of characters whose pose changed (all of
-    /// them when `reuse` is false); returns interpolations and changed characters.
+    /// Advances every shard and rebuilds the palettes a host needs: with `reuse`, only those
+    /// of key poses that changed ([`KeyUpdate`]; a GPU host blends the two palettes in its
+    /// vertex shader); without, the current pose's of every character. Returns interpolations
+    /// and the characters whose palettes were rebuilt.
     fn frame(&mut self, dt: f32, view: &View, reuse: bool) -> Result<(u64, u64), CrowdError> {
         let results: Vec<Result<(u64, u64), CrowdError>> = self
             .shards
@@ -213,19 +229,19 @@ impl Sharded {
             .map(|((crowd, ids), palettes)| {
                 let st = crowd.advance(dt, view)?;
                 let mut changed = 0;
-                for (&id, palette) in ids.iter().zip(palettes.iter_mut()) {
-                    if reuse && !crowd.pose_changed(id)? {
-                        continue;
+                for (&id, [from, to]) in ids.iter().zip(palettes.iter_mut()) {
+                    let update = if reuse {
+                        crowd.key_poses(id)?.update
+                    } else {
+                        KeyUpdate::Advanced
+                    };
+                    match update {
+                        KeyUpdate::Unchanged => continue,
+                        KeyUpdate::Advanced => std::mem::swap(from, to),
+                        KeyUpdate::Restarted => key_palette(crowd, id, false, from)?,
                     }
+                    key_palette(crowd, id, true, to)?;
                     changed += 1;
-                    let mut at = 0;
-                    for s in 0..crowd.rig().skins().len() {
-                        at += crowd.skinning_matrices(
-                            id,
-                            animlod::SkinId::new(s),
-                            &mut palette[at..],
-                        )?;
-                    }
                 }
                 Ok((st.bones_interpolated, changed))
             })
@@ -348,8 +364,12 @@ pub struct Stages {
     pub concat_ms: f64,
     /// Skinning palette (model × inverse bind).
     pub palette_ms: f64,
-    /// CPU linear-blend skinning of the rig's meshes (positions and normals).
+    /// CPU linear-blend skinning of the rig's meshes (positions and normals), including
+    /// `blend_ms`.
     pub skin_ms: f64,
+    /// Of `skin_ms`: blending the two skinned key poses ([`SkinBlendJob`]; interpolated mode
+    /// only).
+    pub blend_ms: f64,
 }
 
 /// The pipeline measured on one thread, without and with LOD.
@@ -361,9 +381,10 @@ pub struct PipelineRow {
     pub vertices: usize,
     /// Full detail, every stage for every character every frame.
     pub full: Stages,
-    /// With LOD: held characters reuse their palette and skinned vertices.
+    /// With LOD: only key poses that changed are skinned; the output blends two skinned copies.
     pub lod: Stages,
-    /// Fraction of character-frames skinned with LOD (the rest reused their output).
+    /// Fraction of character-frames with LOD in which a key pose was skinned (the rest reused
+    /// or blended their copies).
     pub lod_skinned_fraction: f64,
     /// Mean on-screen error (px) with LOD (bone tips).
     pub mean_error_px: f32,
@@ -371,8 +392,46 @@ pub struct PipelineRow {
     pub max_error_px: f32,
 }
 
+/// One character's skinned output on the host: the skinned key poses (`[from, to]`, positions
+/// and normals of every mesh one after the other) and the blended output.
+struct HostSkin {
+    keys: [(Vec<Vec3>, Vec<Vec3>); 2],
+    out: (Vec<Vec3>, Vec<Vec3>),
+}
+
+/// Skins every mesh of a character's key pose (`later`: `to`) into `out`.
+fn skin_key(
+    rig: &Rig,
+    crowd: &Crowd,
+    id: CharacterId,
+    later: bool,
+    palette: &mut Vec<Mat4>,
+    out: &mut (Vec<Vec3>, Vec<Vec3>),
+) -> Result<(), CrowdError> {
+    let mut at = 0;
+    for mesh in rig.meshes() {
+        let joints = rig.skin(mesh.skin).map_or(0, |s| s.joints.len());
+        palette.resize(joints, Mat4::IDENTITY);
+        crowd.key_skinning_matrices(id, mesh.skin, later, palette)?;
+        let v = mesh.vertex_count();
+        SkinningJob {
+            mesh,
+            palette,
+            positions: &mut out.0[at..at + v],
+            normals: &mut out.1[at..at + v],
+        }
+        .run()?;
+        at += v;
+    }
+    Ok(())
+}
+
 /// Measures every stage of the pipeline for `setup.characters` characters on one thread, with
-/// LOD off and with `setup.lod` (held characters reuse their palette and skinned output).
+/// LOD off and with `setup.lod`. With LOD the host keeps its skinned output per key pose
+/// ([`Crowd::key_poses`]): it skins only key poses that changed, blends the two skinned copies
+/// when the weight is strictly between 0 and 1 (at 0 or 1 a copy is the output), and reuses
+/// everything for a character whose pose did not change (palette time is part of `skin_ms`
+/// there; `palette_ms` counts LOD off's palettes).
 pub fn run_pipeline(rig: &Arc<Rig>, setup: &LargeSetup) -> Result<PipelineRow, CrowdError> {
     let view = setup.view()?;
     let vertices: usize = rig.meshes().iter().map(|m| m.vertex_count()).sum();
@@ -386,6 +445,18 @@ pub fn run_pipeline(rig: &Arc<Rig>, setup: &LargeSetup) -> Result<PipelineRow, C
         let n = setup.characters;
         let mut out_p = vec![vec![Vec3::ZERO; vertices]; n];
         let mut out_n = vec![vec![Vec3::ZERO; vertices]; n];
+        let buffer = || (vec![Vec3::ZERO; vertices], vec![Vec3::ZERO; vertices]);
+        let mut host: Vec<HostSkin> = if k == 1 {
+            (0..n)
+                .map(|_| HostSkin {
+                    keys: [buffer(), buffer()],
+                    out: buffer(),
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let mut blend_s = 0.0f64;
         let mut palette = Vec::new();
         let mut poses_per_frame = Vec::new();
         for frame in 0..setup.warmup_frames + setup.frames {
@@ -398,10 +469,38 @@ pub fn run_pipeline(rig: &Arc<Rig>, setup: &LargeSetup) -> Result<PipelineRow, C
                 for &id in ids {
                     let ci = c_index;
                     c_index += 1;
-                    if k == 1 && !crowd.pose_changed(id)? {
+                    if k == 1 {
+                        let t0 = Instant::now();
+                        let h = &mut host[ci];
+                        let keys = crowd.key_poses(id)?;
+                        match keys.update {
+                            KeyUpdate::Unchanged => {}
+                            KeyUpdate::Advanced => {
+                                h.keys.swap(0, 1);
+                                skin_key(rig, crowd, id, true, &mut palette, &mut h.keys[1])?;
+                            }
+                            KeyUpdate::Restarted => {
+                                skin_key(rig, crowd, id, false, &mut palette, &mut h.keys[0])?;
+                                skin_key(rig, crowd, id, true, &mut palette, &mut h.keys[1])?;
+                            }
+                        }
+                        skinned += (measured && keys.update != KeyUpdate::Unchanged) as u64;
+                        let t1 = Instant::now();
+                        if crowd.pose_changed(id)? && keys.weight > 0.0 && keys.weight < 1.0 {
+                            let [a, b] = &h.keys;
+                            SkinBlendJob {
+                                from: (&a.0, &a.1),
+                                to: (&b.0, &b.1),
+                                weight: keys.weight,
+                                positions: &mut h.out.0,
+                                normals: &mut h.out.1,
+                            }
+                            .run()?;
+                        }
+                        skin_s += t0.elapsed().as_secs_f64();
+                        blend_s += t1.elapsed().as_secs_f64() * measured as u8 as f64;
                         continue;
                     }
-                    skinned += (k == 1 && measured) as u64;
                     let mut at = 0;
                     for mesh in rig.meshes() {
                         let joints = rig.skin(mesh.skin).map_or(0, |s| s.joints.len());
@@ -430,15 +529,24 @@ pub fn run_pipeline(rig: &Arc<Rig>, setup: &LargeSetup) -> Result<PipelineRow, C
                 x.palette_ms += palette_s * 1e3;
                 x.skin_ms += skin_s * 1e3;
                 poses_per_frame.push(s.poses());
+            } else {
+                blend_s = 0.0;
             }
         }
         let frames = setup.frames.max(1) as f64;
         let x = &mut stages[k];
-        (x.sample_ms, x.concat_ms, x.palette_ms, x.skin_ms) = (
+        (
+            x.sample_ms,
+            x.concat_ms,
+            x.palette_ms,
+            x.skin_ms,
+            x.blend_ms,
+        ) = (
             x.sample_ms / frames,
             x.concat_ms / frames,
             x.palette_ms / frames,
             x.skin_ms / frames,
+            blend_s * 1e3 / frames,
         );
         match &reference {
             None => reference = Some(poses_per_frame),
