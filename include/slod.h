@@ -347,6 +347,37 @@ typedef uint32_t SlodShape;
 #endif // __cplusplus
 
 /**
+ * What the last `slod_crowd_advance` changed in a character's key poses
+ * (`SLOD_LOD_MODE_INTERPOLATED`; values of `slod_character_key_state`'s `out_update`).
+ */
+enum SlodKeyUpdate
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /**
+   * Neither key pose changed (only the blend weight may have).
+   */
+  SLOD_KEY_UPDATE_UNCHANGED = 0,
+  /**
+   * The old later pose became the earlier one and a new later pose was evaluated: swap the
+   * host's two copies (skinned vertices or palettes) and recompute the later one.
+   */
+  SLOD_KEY_UPDATE_ADVANCED = 1,
+  /**
+   * Both key poses were evaluated anew: recompute both copies.
+   */
+  SLOD_KEY_UPDATE_RESTARTED = 2,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum SlodKeyUpdate SlodKeyUpdate;
+#else
+typedef uint32_t SlodKeyUpdate;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
  * Everything a host created: cloths, rigs, crowds and characters. Opaque to C.
  *
  * Threads: a world is used from one thread at a time; functions taking `const SlodWorld*` may
