@@ -304,6 +304,11 @@ enum SlodLodMode
    * placed as far ahead as keeps every joint origin and tip within `max_error_px` pixels.
    */
   SLOD_LOD_MODE_INTERPOLATED = 6,
+  /**
+   * Whole key poses, each standing unchanged over a window centred on its time, within
+   * `max_error_px` pixels at every joint origin and tip (no blending).
+   */
+  SLOD_LOD_MODE_KEY_HOLD = 7,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -992,8 +997,8 @@ typedef struct SlodLodDesc {
   uint32_t bone_updates_per_frame;
   /**
    * `SLOD_LOD_MODE_ERROR_BOUND`: largest on-screen drift of a held bone;
-   * `SLOD_LOD_MODE_INTERPOLATED`: largest on-screen error of a blended pose (pixels, finite,
-   * > 0).
+   * `SLOD_LOD_MODE_INTERPOLATED` and `SLOD_LOD_MODE_KEY_HOLD`: largest on-screen error of the
+   * shown pose (pixels, finite, > 0).
    */
   float max_error_px;
   /**

@@ -137,9 +137,10 @@ fn error_bound_holds_on_every_bundled_rig_with_tips() {
 }
 
 #[test]
-fn interpolated_key_poses_keep_the_bound_on_every_bundled_rig() {
-    // Blending between key poses keeps every joint origin and tip within the bound on every
-    // rig in assets/gltf, every clip, near and far, and spends fewer evaluations far than near.
+fn key_poses_keep_the_bound_on_every_bundled_rig() {
+    // Blending between key poses, and holding each over a centred window, keep every joint
+    // origin and tip within the bound on every rig in assets/gltf, every clip, near and far,
+    // and spend fewer evaluations far than near.
     let mut report = String::new();
     for file in BUNDLED {
         let rig = Arc::new(crate::build::import_path(&asset(file)).unwrap());
@@ -148,23 +149,24 @@ fn interpolated_key_poses_keep_the_bound_on_every_bundled_rig() {
             if rig.clip(clip).unwrap().duration() <= 0.0 {
                 continue;
             }
-            let mut spent = Vec::new();
-            for distance in [3.0, 30.0] {
-                let (e, s) = run_error_bound(
-                    &rig,
-                    clip,
-                    LodMode::Interpolated { max_error_px: 1.0 },
-                    distance,
-                );
-                report += &format!(
-                    "{file} clip {ci} at {distance}: max {:.2} px, mean {:.3} px, spent {:.2}\n",
-                    e.max_px, e.mean_px, s
-                );
-                // The velocity variation is sampled (8 points per 1/60 s): allow 2%.
-                assert!(e.max_px <= 1.02, "{report}");
-                spent.push(s);
+            for lod in [
+                LodMode::Interpolated { max_error_px: 1.0 },
+                LodMode::KeyHold { max_error_px: 1.0 },
+            ] {
+                let mut spent = Vec::new();
+                for distance in [3.0, 30.0] {
+                    let (e, s) = run_error_bound(&rig, clip, lod, distance);
+                    report += &format!(
+                        "{file} clip {ci} {lod:?} at {distance}: max {:.2} px, mean {:.3} px, \
+                         spent {:.2}\n",
+                        e.max_px, e.mean_px, s
+                    );
+                    // Velocities are sampled (16 points per 1/60 s): allow 2%.
+                    assert!(e.max_px <= 1.02, "{report}");
+                    spent.push(s);
+                }
+                assert!(spent[1] <= spent[0], "{report}");
             }
-            assert!(spent[1] <= spent[0], "{report}");
         }
     }
     println!("{report}");
@@ -173,7 +175,13 @@ fn interpolated_key_poses_keep_the_bound_on_every_bundled_rig() {
 #[test]
 fn key_poses_blend_to_the_model_matrices_and_name_what_changed() {
     // A host that follows `KeyUpdate` (swap on Advanced, copy both on Restarted) keeps copies
-    // equal to the crowd's key poses, and blending them gives the model matrices.
+    // equal to the crowd's key poses, and blending them gives the model matrices; a centred
+    // hold always shows its later pose.
+    check_key_poses(LodMode::Interpolated { max_error_px: 1.0 });
+    check_key_poses(LodMode::KeyHold { max_error_px: 1.0 });
+}
+
+fn check_key_poses(lod: LodMode) {
     let rig = Arc::new(crate::build::import_path(&asset("GDQuest_GDBot.glb")).unwrap());
     let mut c = Crowd::new(rig.clone());
     let ids: Vec<_> = (0..rig.clips().len())
@@ -185,8 +193,7 @@ fn key_poses_blend_to_the_model_matrices_and_name_what_changed() {
             id
         })
         .collect();
-    c.set_lod(LodMode::Interpolated { max_error_px: 1.0 })
-        .unwrap();
+    c.set_lod(lod).unwrap();
     let view = view_at(40.0);
     let mut host: Vec<[Vec<Mat4>; 2]> = ids
         .iter()
@@ -210,6 +217,9 @@ fn key_poses_blend_to_the_model_matrices_and_name_what_changed() {
                 KeyUpdate::Restarted => *h = [k.from.to_vec(), k.to.to_vec()],
             }
             assert_eq!((&h[0][..], &h[1][..]), (k.from, k.to));
+            if matches!(lod, LodMode::KeyHold { .. }) {
+                assert_eq!(k.weight, 1.0);
+            }
             for ((a, b), m) in k.from.iter().zip(k.to).zip(c.model_matrices(id).unwrap()) {
                 let blended = *a + (*b - *a) * k.weight;
                 assert!(blended.abs_diff_eq(*m, 1e-5));
@@ -457,6 +467,7 @@ fn a_parallel_crowd_gives_the_serial_poses() {
         },
         LodMode::ErrorBound { max_error_px: 1.0 },
         LodMode::Interpolated { max_error_px: 1.0 },
+        LodMode::KeyHold { max_error_px: 1.0 },
     ] {
         let (mut serial, mut parallel) = (Crowd::new(rig.clone()), Crowd::new(rig.clone()));
         parallel.set_parallel(true);

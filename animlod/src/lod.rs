@@ -65,6 +65,19 @@ pub enum LodMode {
         /// full-detail position.
         max_error_px: f32,
     },
+    /// Whole key poses, each shown unchanged over a window of frames centred on its own time:
+    /// the pose of time `k` stands from `s ≤ k` to `e ≥ k`, with the path of every joint origin
+    /// and tip from `s` to `k` and from `k` to `e` (the build step's speed table) within
+    /// `max_error_px` at the character's nearest visible depth. A hold from the window's start
+    /// (what [`LodMode::ErrorBound`] does per bone) spends the tolerance in one direction; a
+    /// centred one spends it both ways, so a window is about twice as long, and no blending is
+    /// needed — between keys a character's pose, palette and skinned vertices stand unchanged
+    /// ([`crate::Crowd::key_poses`]: always weight 1). Invisible characters do not animate.
+    KeyHold {
+        /// Largest on-screen displacement (pixels) of any joint origin or tip from its
+        /// full-detail position.
+        max_error_px: f32,
+    },
 }
 
 impl LodMode {
@@ -89,6 +102,8 @@ impl LodMode {
     /// Interpolated key poses within half a pixel (the C ABI shares `max_error_px` with the
     /// error bound, so the two defaults agree).
     pub const DEFAULT_INTERPOLATED: LodMode = LodMode::Interpolated { max_error_px: 0.5 };
+    /// Centred key holds within half a pixel (sharing `max_error_px` in the C ABI).
+    pub const DEFAULT_KEY_HOLD: LodMode = LodMode::KeyHold { max_error_px: 0.5 };
 
     /// Checks the parameters: finite, `0 ≤ min < max`, `full_detail_px > 0`,
     /// `0 ≤ freeze_below_px < full_detail_px`, Ω in [0, 1].
@@ -111,12 +126,14 @@ impl LodMode {
                 "pixel size",
                 "needs finite 0 <= freeze_below_px < full_detail_px",
             )),
-            LodMode::ErrorBound { max_error_px: e } | LodMode::Interpolated { max_error_px: e }
+            LodMode::ErrorBound { max_error_px: e }
+            | LodMode::Interpolated { max_error_px: e }
+            | LodMode::KeyHold { max_error_px: e }
                 if e.is_finite() && e > 0.0 =>
             {
                 Ok(())
             }
-            LodMode::ErrorBound { .. } | LodMode::Interpolated { .. } => {
+            LodMode::ErrorBound { .. } | LodMode::Interpolated { .. } | LodMode::KeyHold { .. } => {
                 Err(invalid("max_error_px", "must be finite and positive"))
             }
         }

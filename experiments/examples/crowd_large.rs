@@ -1,5 +1,5 @@
 //! Prints the crowd pipeline and large-crowd measurements of issue 13 for one LOD mode:
-//! `cargo run --release -p slod-experiments --example crowd_large -- [interpolated|error-bound]
+//! `cargo run --release -p slod-experiments --example crowd_large -- [interpolated|key-hold|error-bound]
 //! [max_error_px] [characters...]` (default: interpolated 1 px, 1000 and 10000 characters).
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -12,6 +12,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let px: f32 = args.get(1).map_or(Ok(1.0), |a| a.parse())?;
     let lod = match args.first().map(String::as_str) {
         Some("error-bound") => LodMode::ErrorBound { max_error_px: px },
+        Some("key-hold") => LodMode::KeyHold { max_error_px: px },
         _ => LodMode::Interpolated { max_error_px: px },
     };
     let sizes: Vec<usize> = if args.len() > 2 {

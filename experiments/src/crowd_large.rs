@@ -53,13 +53,13 @@ pub struct LargeSetup {
 }
 
 impl LargeSetup {
-    /// `characters` from 2 to 200 m, interpolated key poses within 1 px, 1080 px high.
+    /// `characters` from 2 to 200 m, centred key holds within 1 px, 1080 px high.
     pub fn new(characters: usize) -> LargeSetup {
         LargeSetup {
             characters,
             near_m: 2.0,
             far_m: 200.0,
-            lod: LodMode::Interpolated { max_error_px: 1.0 },
+            lod: LodMode::KeyHold { max_error_px: 1.0 },
             warmup_frames: 10,
             frames: 20,
             dt: 1.0 / 60.0,
@@ -426,94 +426,114 @@ fn skin_key(
     Ok(())
 }
 
-/// Measures every stage of the pipeline for `setup.characters` characters on one thread, with
-/// LOD off and with `setup.lod`. With LOD the host keeps its skinned output per key pose
-/// ([`Crowd::key_poses`]): it skins only key poses that changed, blends the two skinned copies
-/// when the weight is strictly between 0 and 1 (at 0 or 1 a copy is the output), and reuses
-/// everything for a character whose pose did not change (palette time is part of `skin_ms`
-/// there; `palette_ms` counts LOD off's palettes).
-pub fn run_pipeline(rig: &Arc<Rig>, setup: &LargeSetup) -> Result<PipelineRow, CrowdError> {
-    let view = setup.view()?;
-    let vertices: usize = rig.meshes().iter().map(|m| m.vertex_count()).sum();
-    let mut sum = ErrorSum::default();
-    let mut stages = [Stages::default(); 2];
-    let mut reference: Option<Vec<Vec<Mat4>>> = None;
-    let mut skinned = 0u64;
-    for (k, lod) in [LodMode::Off, setup.lod].into_iter().enumerate() {
+/// One LOD mode's side of the pipeline measurement: the crowd, the host's skinned output and
+/// the stage times so far.
+struct PipelineRun {
+    s: Sharded,
+    /// Whether the host keeps one skinned copy per key pose (the LOD side) or skins the current
+    /// pose of every character every frame (full detail).
+    keyed: bool,
+    out: Vec<(Vec<Vec3>, Vec<Vec3>)>,
+    host: Vec<HostSkin>,
+    palette: Vec<Mat4>,
+    stages: Stages,
+    skinned: u64,
+}
+
+impl PipelineRun {
+    fn new(
+        rig: &Arc<Rig>,
+        setup: &LargeSetup,
+        lod: LodMode,
+        keyed: bool,
+    ) -> Result<Self, CrowdError> {
         let mut s = Sharded::new(rig, setup, lod)?;
         s.shards.iter_mut().for_each(|c| c.set_stage_timing(true));
+        let vertices: usize = rig.meshes().iter().map(|m| m.vertex_count()).sum();
         let n = setup.characters;
-        let mut out_p = vec![vec![Vec3::ZERO; vertices]; n];
-        let mut out_n = vec![vec![Vec3::ZERO; vertices]; n];
         let buffer = || (vec![Vec3::ZERO; vertices], vec![Vec3::ZERO; vertices]);
-        let mut host: Vec<HostSkin> = if k == 1 {
-            (0..n)
+        let (out, host) = if keyed {
+            let host = (0..n)
                 .map(|_| HostSkin {
                     keys: [buffer(), buffer()],
                     out: buffer(),
                 })
-                .collect()
+                .collect();
+            (Vec::new(), host)
         } else {
-            Vec::new()
+            ((0..n).map(|_| buffer()).collect(), Vec::new())
         };
-        let mut blend_s = 0.0f64;
-        let mut palette = Vec::new();
-        let mut poses_per_frame = Vec::new();
-        for frame in 0..setup.warmup_frames + setup.frames {
-            let measured = frame >= setup.warmup_frames;
-            let mut st = animlod::FrameStats::default();
-            let (mut palette_s, mut skin_s) = (0.0f64, 0.0f64);
-            let mut c_index = 0;
-            for (crowd, ids) in s.shards.iter_mut().zip(&s.ids) {
-                st += crowd.advance(setup.dt, &view)?;
-                for &id in ids {
-                    let ci = c_index;
-                    c_index += 1;
-                    if k == 1 {
-                        let t0 = Instant::now();
-                        let h = &mut host[ci];
-                        let keys = crowd.key_poses(id)?;
-                        match keys.update {
-                            KeyUpdate::Unchanged => {}
-                            KeyUpdate::Advanced => {
-                                h.keys.swap(0, 1);
-                                skin_key(rig, crowd, id, true, &mut palette, &mut h.keys[1])?;
-                            }
-                            KeyUpdate::Restarted => {
-                                skin_key(rig, crowd, id, false, &mut palette, &mut h.keys[0])?;
-                                skin_key(rig, crowd, id, true, &mut palette, &mut h.keys[1])?;
-                            }
+        Ok(PipelineRun {
+            s,
+            keyed,
+            out,
+            host,
+            palette: Vec::new(),
+            stages: Stages::default(),
+            skinned: 0,
+        })
+    }
+
+    /// One frame: advance, then the host's palettes and skinning; times added when `measured`.
+    fn frame(
+        &mut self,
+        rig: &Rig,
+        setup: &LargeSetup,
+        view: &View,
+        measured: bool,
+    ) -> Result<(), CrowdError> {
+        let mut st = animlod::FrameStats::default();
+        let (mut palette_s, mut skin_s, mut blend_s) = (0.0f64, 0.0f64, 0.0f64);
+        let mut ci = 0;
+        let palette = &mut self.palette;
+        for (crowd, ids) in self.s.shards.iter_mut().zip(&self.s.ids) {
+            st += crowd.advance(setup.dt, view)?;
+            for &id in ids {
+                if self.keyed {
+                    let t0 = Instant::now();
+                    let h = &mut self.host[ci];
+                    let keys = crowd.key_poses(id)?;
+                    match keys.update {
+                        KeyUpdate::Unchanged => {}
+                        KeyUpdate::Advanced => {
+                            h.keys.swap(0, 1);
+                            skin_key(rig, crowd, id, true, palette, &mut h.keys[1])?;
                         }
-                        skinned += (measured && keys.update != KeyUpdate::Unchanged) as u64;
-                        let t1 = Instant::now();
-                        if crowd.pose_changed(id)? && keys.weight > 0.0 && keys.weight < 1.0 {
-                            let [a, b] = &h.keys;
-                            SkinBlendJob {
-                                from: (&a.0, &a.1),
-                                to: (&b.0, &b.1),
-                                weight: keys.weight,
-                                positions: &mut h.out.0,
-                                normals: &mut h.out.1,
-                            }
-                            .run()?;
+                        KeyUpdate::Restarted => {
+                            skin_key(rig, crowd, id, false, palette, &mut h.keys[0])?;
+                            skin_key(rig, crowd, id, true, palette, &mut h.keys[1])?;
                         }
-                        skin_s += t0.elapsed().as_secs_f64();
-                        blend_s += t1.elapsed().as_secs_f64() * measured as u8 as f64;
-                        continue;
                     }
+                    self.skinned += (measured && keys.update != KeyUpdate::Unchanged) as u64;
+                    let t1 = Instant::now();
+                    if crowd.pose_changed(id)? && keys.weight > 0.0 && keys.weight < 1.0 {
+                        let [a, b] = &h.keys;
+                        SkinBlendJob {
+                            from: (&a.0, &a.1),
+                            to: (&b.0, &b.1),
+                            weight: keys.weight,
+                            positions: &mut h.out.0,
+                            normals: &mut h.out.1,
+                        }
+                        .run()?;
+                    }
+                    skin_s += t0.elapsed().as_secs_f64();
+                    blend_s += t1.elapsed().as_secs_f64();
+                } else {
                     let mut at = 0;
                     for mesh in rig.meshes() {
                         let joints = rig.skin(mesh.skin).map_or(0, |s| s.joints.len());
                         palette.resize(joints, Mat4::IDENTITY);
                         let t0 = Instant::now();
-                        crowd.skinning_matrices(id, mesh.skin, &mut palette)?;
+                        crowd.skinning_matrices(id, mesh.skin, palette)?;
                         let t1 = Instant::now();
                         let v = mesh.vertex_count();
+                        let out = &mut self.out[ci];
                         SkinningJob {
                             mesh,
-                            palette: &palette,
-                            positions: &mut out_p[ci][at..at + v],
-                            normals: &mut out_n[ci][at..at + v],
+                            palette,
+                            positions: &mut out.0[at..at + v],
+                            normals: &mut out.1[at..at + v],
                         }
                         .run()?;
                         palette_s += (t1 - t0).as_secs_f64();
@@ -521,49 +541,64 @@ pub fn run_pipeline(rig: &Arc<Rig>, setup: &LargeSetup) -> Result<PipelineRow, C
                         at += v;
                     }
                 }
-            }
-            if measured {
-                let x = &mut stages[k];
-                x.sample_ms += st.sample_ns as f64 * 1e-6;
-                x.concat_ms += st.concat_ns as f64 * 1e-6;
-                x.palette_ms += palette_s * 1e3;
-                x.skin_ms += skin_s * 1e3;
-                poses_per_frame.push(s.poses());
-            } else {
-                blend_s = 0.0;
+                ci += 1;
             }
         }
-        let frames = setup.frames.max(1) as f64;
-        let x = &mut stages[k];
-        (
-            x.sample_ms,
-            x.concat_ms,
-            x.palette_ms,
-            x.skin_ms,
-            x.blend_ms,
-        ) = (
-            x.sample_ms / frames,
-            x.concat_ms / frames,
-            x.palette_ms / frames,
-            x.skin_ms / frames,
-            blend_s * 1e3 / frames,
-        );
-        match &reference {
-            None => reference = Some(poses_per_frame),
-            Some(full) => {
-                let sk = rig.skeleton();
-                let bones = sk.len();
-                let worlds = s
-                    .shards
-                    .iter()
-                    .zip(&s.ids)
-                    .flat_map(|(c, ids)| ids.iter().map(|&id| c.world_transform(id)))
-                    .collect::<Result<Vec<_>, _>>()?;
-                for (a, b) in poses_per_frame.iter().zip(full) {
-                    for (i, w) in worlds.iter().enumerate() {
-                        let r = i * bones..(i + 1) * bones;
-                        sum.add_pose(sk, &a[r.clone()], &b[r], w, &view);
-                    }
+        if measured {
+            let x = &mut self.stages;
+            x.sample_ms += st.sample_ns as f64 * 1e-6;
+            x.concat_ms += st.concat_ns as f64 * 1e-6;
+            x.palette_ms += palette_s * 1e3;
+            x.skin_ms += skin_s * 1e3;
+            x.blend_ms += blend_s * 1e3;
+        }
+        Ok(())
+    }
+
+    /// The stage times per measured frame.
+    fn per_frame(&self, frames: usize) -> Stages {
+        let f = frames.max(1) as f64;
+        let x = &self.stages;
+        Stages {
+            sample_ms: x.sample_ms / f,
+            concat_ms: x.concat_ms / f,
+            palette_ms: x.palette_ms / f,
+            skin_ms: x.skin_ms / f,
+            blend_ms: x.blend_ms / f,
+        }
+    }
+}
+
+/// Measures every stage of the pipeline for `setup.characters` characters on one thread, with
+/// LOD off and with `setup.lod`, the two advanced in lockstep (a frame of one, then the same
+/// frame of the other, so that a change of machine load hits both alike). With LOD the host
+/// keeps its skinned output per key pose ([`Crowd::key_poses`]): it skins only key poses that
+/// changed, blends the two skinned copies when the weight is strictly between 0 and 1 (at 0 or
+/// 1 a copy is the output), and reuses everything for a character whose pose did not change
+/// (palette time is part of `skin_ms` there; `palette_ms` counts LOD off's palettes). The
+/// error compares the two crowds' model matrices every measured frame (bone origins and tips).
+pub fn run_pipeline(rig: &Arc<Rig>, setup: &LargeSetup) -> Result<PipelineRow, CrowdError> {
+    let view = setup.view()?;
+    let vertices: usize = rig.meshes().iter().map(|m| m.vertex_count()).sum();
+    let mut full = PipelineRun::new(rig, setup, LodMode::Off, false)?;
+    let mut lod = PipelineRun::new(rig, setup, setup.lod, true)?;
+    let mut sum = ErrorSum::default();
+    let sk = rig.skeleton();
+    for frame in 0..setup.warmup_frames + setup.frames {
+        let measured = frame >= setup.warmup_frames;
+        full.frame(rig, setup, &view, measured)?;
+        lod.frame(rig, setup, &view, measured)?;
+        if measured {
+            for s in 0..SHARDS {
+                let (a, b) = (&full.s.shards[s], &lod.s.shards[s]);
+                for (&x, &y) in full.s.ids[s].iter().zip(&lod.s.ids[s]) {
+                    sum.add_pose(
+                        sk,
+                        b.model_matrices(y)?,
+                        a.model_matrices(x)?,
+                        &a.world_transform(x)?,
+                        &view,
+                    );
                 }
             }
         }
@@ -572,9 +607,9 @@ pub fn run_pipeline(rig: &Arc<Rig>, setup: &LargeSetup) -> Result<PipelineRow, C
     Ok(PipelineRow {
         characters: setup.characters,
         vertices,
-        full: stages[0],
-        lod: stages[1],
-        lod_skinned_fraction: skinned as f64
+        full: full.per_frame(setup.frames),
+        lod: lod.per_frame(setup.frames),
+        lod_skinned_fraction: lod.skinned as f64
             / (setup.frames.max(1) * setup.characters.max(1)) as f64,
         mean_error_px: e.mean_px,
         max_error_px: e.max_px,

@@ -17,7 +17,8 @@
 //! length away at `b`, and the path over a bin is at most the bin's width times the largest
 //! speed sampled in it.
 //!
-//! The table: the clip is cut into bins of about 1/60 s, each sampled at [`SUBSTEPS`] points;
+//! The table: the clip is cut into bins of about 1/240 s (a quarter of a 60 Hz frame, so an
+//! interval is over-read by at most half a frame at its two ends), each sampled at [`SUBSTEPS`] points;
 //! per bin, the largest (over the measured points) sum of velocity changes between consecutive
 //! sub-steps, including the change from the previous bin's last sub-step. The total variation
 //! over an interval is at most the sum over the bins it touches, stored as prefix sums.
@@ -28,9 +29,9 @@ use crate::clip::{Clip, Cursor, TrsScratch};
 use crate::skeleton::Skeleton;
 
 /// Bins per second of clip time.
-const BINS_PER_SECOND: f32 = 60.0;
+const BINS_PER_SECOND: f32 = 240.0;
 /// Velocity samples per bin.
-const SUBSTEPS: usize = 8;
+const SUBSTEPS: usize = 4;
 
 /// The velocity-variation table of one clip: bin width (s) and prefix sums of the per-bin
 /// bounds (model units per second), `prefix[k]` = sum of bins `0..k`.
@@ -43,6 +44,9 @@ pub(crate) struct VariationTable {
     /// Prefix sums of the per-bin path bound (bin width × largest speed of any measured point
     /// in the bin; model units), one more than the bins.
     pub(crate) path: Vec<f32>,
+    /// Largest distance (model units) of any measured point between the clip's end pose and
+    /// its start pose: what continuing an interpolation across a looping clip's wrap costs.
+    pub(crate) wrap_jump: f32,
 }
 
 impl VariationTable {
@@ -103,6 +107,7 @@ pub(crate) fn variation_table(clip: &Clip, skeleton: &Skeleton) -> VariationTabl
     };
     let (mut p0, mut p1) = (Vec::new(), Vec::new());
     pose_at(0.0, &mut p0);
+    let first = p0.clone();
     let mut velocity: Vec<Vec3> = Vec::new();
     let mut per_point = vec![0.0f32; p0.len()];
     let mut prefix = Vec::with_capacity(bins + 1);
@@ -130,5 +135,15 @@ pub(crate) fn variation_table(clip: &Clip, skeleton: &Skeleton) -> VariationTabl
         prefix.push(prefix[k] + worst);
         path.push(path[k] + speed * bin);
     }
-    VariationTable { bin, prefix, path }
+    let wrap_jump = first
+        .iter()
+        .zip(&p0)
+        .map(|(a, b)| a.distance(*b))
+        .fold(0.0f32, f32::max);
+    VariationTable {
+        bin,
+        prefix,
+        path,
+        wrap_jump,
+    }
 }

@@ -185,7 +185,8 @@ impl Crowd {
                 LodMode::Off
                 | LodMode::Budget { .. }
                 | LodMode::ErrorBound { .. }
-                | LodMode::Interpolated { .. } => 1.0,
+                | LodMode::Interpolated { .. }
+                | LodMode::KeyHold { .. } => 1.0,
                 LodMode::Ratio(o) => o,
                 LodMode::Range { min, max } => {
                     if visible {
@@ -200,8 +201,9 @@ impl Crowd {
                 } => omega_from_pixels(c.size_px, full_detail_px, freeze_below_px),
             };
         }
-        if let LodMode::Interpolated { max_error_px } = lod {
-            let stats = self.advance_keyed(max_error_px);
+        if let LodMode::Interpolated { max_error_px } | LodMode::KeyHold { max_error_px } = lod {
+            let centred = matches!(lod, LodMode::KeyHold { .. });
+            let stats = self.advance_keyed(max_error_px, centred);
             self.last_stats = stats;
             return Ok(stats);
         }

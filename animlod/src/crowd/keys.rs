@@ -10,10 +10,15 @@
 //! character's frame then costs a blend of its model matrices; a key frame costs one
 //! evaluation (sampling and concatenation of every animated bone).
 //!
+//! [`LodMode::KeyHold`] shares the key poses but never blends: each key pose stands over a
+//! window centred on its own time (error first order, as a hold's, but spent both ways).
+//!
 //! Key times are whole frames of the character's current playback step ahead of the current
 //! time, so at 60 Hz a key lands on a frame and that frame is exact. Keys never cross the end
-//! of the clip: a looping clip's wrap restarts from exact poses (the end→start jump is not
-//! motion to interpolate over).
+//! of the clip. At a looping clip's wrap, the key pose at the clip's end stands in for the
+//! start pose when the two are within a tenth of the tolerance (the build step measures the
+//! end→start jump; it is added to the interval's bound); otherwise the wrap restarts from exact
+//! poses.
 
 use std::time::Instant;
 
@@ -31,6 +36,10 @@ const MAX_KEY_FRAMES: u32 = 32;
 /// skinning: its output is reused) before the next key is placed; the interpolation from that
 /// key pose, whose bound covers the held time too, must still fit the whole tolerance.
 const HOLD_SHARE: f32 = 0.5;
+
+/// Largest share of the tolerance a looping clip's end→start jump may take for an
+/// interpolation to continue across the wrap from the end key pose.
+const WRAP_SHARE: f32 = 0.1;
 
 /// Characters per parallel task.
 const PARALLEL_CHUNK: usize = 32;
@@ -57,7 +66,7 @@ struct KeyLanes<'a> {
 impl Crowd {
     /// The frame of [`LodMode::Interpolated`] (after `advance` moved every character's time
     /// and measured it in the view): per character, blend or place a new key.
-    pub(super) fn advance_keyed(&mut self, max_error_px: f32) -> FrameStats {
+    pub(super) fn advance_keyed(&mut self, max_error_px: f32, centred: bool) -> FrameStats {
         let (rig, stride, bones, timing) = (&*self.rig, self.stride, self.bones, self.stage_timing);
         let run = |chars: &mut [Character],
                    locals: &mut [Affine3A],
@@ -74,7 +83,11 @@ impl Crowd {
                     from: &mut from[r.clone()],
                     to: &mut to[r],
                 };
-                sum += advance_keyed_character(rig, max_error_px, c, lanes, s, timing);
+                sum += if centred {
+                    advance_centred_character(rig, max_error_px, c, lanes, s, timing)
+                } else {
+                    advance_keyed_character(rig, max_error_px, c, lanes, s, timing)
+                };
             }
             sum
         };
@@ -180,8 +193,18 @@ fn advance_keyed_character(
     }
     let tolerance = max_error_px / c.near_ppu;
     let t = c.time;
-    let restart =
-        c.stale || c.wrapped || t < c.key_from || (t < c.key_to && c.key_error > tolerance);
+    // A wrap continues from the end key pose when the clip's end→start jump is small.
+    let duration = clip.duration();
+    let wrap_continues =
+        c.wrapped && !c.stale && c.key_to >= duration && table.wrap_jump <= WRAP_SHARE * tolerance;
+    if wrap_continues {
+        (c.key_from, c.key_to) = (c.key_from - duration, 0.0);
+    }
+    let jump = if wrap_continues { table.wrap_jump } else { 0.0 };
+    let restart = c.stale
+        || (c.wrapped && !wrap_continues)
+        || t < c.key_from
+        || (t < c.key_to && c.key_error > tolerance);
     if !restart && t <= c.key_to {
         // Within the interval: blend (nothing to do when time stood still).
         if c.step > 0.0 {
@@ -198,7 +221,11 @@ fn advance_keyed_character(
         return st;
     }
     c.holding = was_holding;
-    if !restart && c.step > 0.0 && table.hold_error(c.key_to, t) <= HOLD_SHARE * tolerance {
+    if !restart
+        && !wrap_continues
+        && c.step > 0.0
+        && table.hold_error(c.key_to, t) <= HOLD_SHARE * tolerance
+    {
         // Past the interval but still close to the last key pose: hold it (weight 1, so the
         // pose and any skinned output of `to` stand). The frame that starts the hold moves
         // the model matrices to `to` (the last blend may have stopped short of it).
@@ -231,7 +258,7 @@ fn advance_keyed_character(
     if c.step > 0.0 {
         for n in 1..=MAX_KEY_FRAMES {
             let candidate = (t + n as f32 * c.step).min(limit);
-            if candidate <= end || table.lerp_error(start, candidate) > tolerance {
+            if candidate <= end || jump + table.lerp_error(start, candidate) > tolerance {
                 break;
             }
             end = candidate;
@@ -241,8 +268,13 @@ fn advance_keyed_character(
         evaluate(clip, parents, end, s, locals, to);
         evaluations += 1;
     }
-    (c.key_from, c.key_to, c.key_error, c.stale, c.holding) =
-        (start, end, table.lerp_error(start, end), false, false);
+    (c.key_from, c.key_to, c.key_error, c.stale, c.holding) = (
+        start,
+        end,
+        jump + table.lerp_error(start, end),
+        false,
+        false,
+    );
     let w = weight(c);
     blend(&clip.moving, from, to, w, models);
     c.changed = true;
@@ -254,6 +286,92 @@ fn advance_keyed_character(
     if let Some(t0) = clock {
         // Key evaluation counted as sampling (its concatenation and the blend are a small
         // part of it).
+        st.sample_ns += t0.elapsed().as_nanos() as u64;
+    }
+    st
+}
+
+/// One character's centred-hold frame ([`LodMode::KeyHold`]): nothing changes inside the
+/// window; past it, the next key time `k` is the farthest whole step ahead whose path from now
+/// stays within the tolerance, and the window ends at the farthest whole step after `k` whose
+/// path from `k` does. The pose of `k` is shown from now to the window's end. Key times stay
+/// within the clip (a looping clip's wrap starts a new window).
+fn advance_centred_character(
+    rig: &Rig,
+    max_error_px: f32,
+    c: &mut Character,
+    lanes: KeyLanes<'_>,
+    s: &mut Scratch,
+    timing: bool,
+) -> FrameStats {
+    let clip = &rig.clips()[c.clip.index()];
+    let table = &rig.priorities[c.clip.index()].variation;
+    let animated = clip.animated.len() as u64;
+    let mut st = FrameStats {
+        characters: 1,
+        bones_constant: rig.bone_count() as u64 - animated,
+        bones_held: animated,
+        characters_frozen: 1,
+        ..FrameStats::default()
+    };
+    let KeyLanes {
+        locals,
+        models,
+        from,
+        to,
+    } = lanes;
+    c.key_update = KeyUpdate::Unchanged;
+    c.changed = false;
+    if c.near_ppu <= 0.0 || animated == 0 {
+        c.stale |= c.near_ppu <= 0.0;
+        return st;
+    }
+    let tolerance = max_error_px / c.near_ppu;
+    let t = c.time;
+    // `key_from` and `key_to` hold the window (start, end); `key_error` its bound.
+    let inside =
+        !c.stale && !c.wrapped && t >= c.key_from && t <= c.key_to && c.key_error <= tolerance;
+    if inside {
+        return st;
+    }
+    let clock = timing.then(Instant::now);
+    let limit = clip.duration();
+    let step = c.step.max(0.0);
+    // The farthest key time whose pose is within the tolerance of now's…
+    let mut k = t;
+    if step > 0.0 {
+        for n in 1..=MAX_KEY_FRAMES {
+            let candidate = (t + n as f32 * step).min(limit);
+            if candidate <= k || table.hold_error(t, candidate) > tolerance {
+                break;
+            }
+            k = candidate;
+        }
+    }
+    // …and the farthest frame after it still within the tolerance of the key's pose.
+    let mut end = k;
+    if step > 0.0 {
+        for n in 1..=MAX_KEY_FRAMES {
+            let candidate = (k + n as f32 * step).min(limit);
+            if candidate <= end || table.hold_error(k, candidate) > tolerance {
+                break;
+            }
+            end = candidate;
+        }
+    }
+    from[..].copy_from_slice(to);
+    evaluate(clip, rig.skeleton().parents_raw(), k, s, locals, to);
+    blend(&clip.moving, from, to, 1.0, models);
+    (c.key_from, c.key_to, c.stale) = (t, end, false);
+    c.key_error = table.hold_error(t, k).max(table.hold_error(k, end));
+    c.key_update = KeyUpdate::Advanced;
+    c.changed = true;
+    st.characters_frozen = 0;
+    st.key_poses = 1;
+    st.bones_interpolated = animated;
+    st.bones_held = 0;
+    st.bones_concatenated = clip.moving.len() as u64;
+    if let Some(t0) = clock {
         st.sample_ns += t0.elapsed().as_nanos() as u64;
     }
     st

@@ -679,10 +679,13 @@ impl Crowd {
         Ok(self.chars[self.dense(id)?].changed)
     }
 
-    /// Whether the crowd keeps key poses ([`LodMode::Interpolated`]).
+    /// Whether the crowd keeps key poses ([`LodMode::Interpolated`], [`LodMode::KeyHold`]).
     #[inline]
     fn keyed(&self) -> bool {
-        matches!(self.lod, LodMode::Interpolated { .. })
+        matches!(
+            self.lod,
+            LodMode::Interpolated { .. } | LodMode::KeyHold { .. }
+        )
     }
 
     /// A character's two key poses, the weight its current pose blends them with, and what the
@@ -712,7 +715,11 @@ impl Crowd {
         Ok(KeyPoses {
             from: &self.key_from[span.clone()],
             to: &self.key_to[span],
-            weight: keys::weight(c),
+            weight: if matches!(self.lod, LodMode::KeyHold { .. }) {
+                1.0
+            } else {
+                keys::weight(c)
+            },
             update: c.key_update,
         })
     }
