@@ -399,6 +399,37 @@ struct HostSkin {
     out: (Vec<Vec3>, Vec<Vec3>),
 }
 
+/// Skins every mesh of the rig into `out` (positions and normals, mesh after mesh), each with
+/// the palette `write_palette` writes for its skin; returns the seconds spent on palettes and
+/// on skinning.
+fn skin_meshes(
+    rig: &Rig,
+    palette: &mut Vec<Mat4>,
+    out: &mut (Vec<Vec3>, Vec<Vec3>),
+    mut write_palette: impl FnMut(SkinId, &mut [Mat4]) -> Result<usize, CrowdError>,
+) -> Result<(f64, f64), CrowdError> {
+    let (mut at, mut palette_s, mut skin_s) = (0, 0.0, 0.0);
+    for mesh in rig.meshes() {
+        let joints = rig.skin(mesh.skin).map_or(0, |s| s.joints.len());
+        palette.resize(joints, Mat4::IDENTITY);
+        let t0 = Instant::now();
+        write_palette(mesh.skin, palette)?;
+        let t1 = Instant::now();
+        let v = mesh.vertex_count();
+        SkinningJob {
+            mesh,
+            palette,
+            positions: &mut out.0[at..at + v],
+            normals: &mut out.1[at..at + v],
+        }
+        .run()?;
+        palette_s += (t1 - t0).as_secs_f64();
+        skin_s += t1.elapsed().as_secs_f64();
+        at += v;
+    }
+    Ok((palette_s, skin_s))
+}
+
 /// Skins every mesh of a character's key pose (`later`: `to`) into `out`.
 fn skin_key(
     rig: &Rig,
@@ -408,21 +439,9 @@ fn skin_key(
     palette: &mut Vec<Mat4>,
     out: &mut (Vec<Vec3>, Vec<Vec3>),
 ) -> Result<(), CrowdError> {
-    let mut at = 0;
-    for mesh in rig.meshes() {
-        let joints = rig.skin(mesh.skin).map_or(0, |s| s.joints.len());
-        palette.resize(joints, Mat4::IDENTITY);
-        crowd.key_skinning_matrices(id, mesh.skin, later, palette)?;
-        let v = mesh.vertex_count();
-        SkinningJob {
-            mesh,
-            palette,
-            positions: &mut out.0[at..at + v],
-            normals: &mut out.1[at..at + v],
-        }
-        .run()?;
-        at += v;
-    }
+    skin_meshes(rig, palette, out, |skin, p| {
+        crowd.key_skinning_matrices(id, skin, later, p)
+    })?;
     Ok(())
 }
 
@@ -520,26 +539,11 @@ impl PipelineRun {
                     skin_s += t0.elapsed().as_secs_f64();
                     blend_s += t1.elapsed().as_secs_f64();
                 } else {
-                    let mut at = 0;
-                    for mesh in rig.meshes() {
-                        let joints = rig.skin(mesh.skin).map_or(0, |s| s.joints.len());
-                        palette.resize(joints, Mat4::IDENTITY);
-                        let t0 = Instant::now();
-                        crowd.skinning_matrices(id, mesh.skin, palette)?;
-                        let t1 = Instant::now();
-                        let v = mesh.vertex_count();
-                        let out = &mut self.out[ci];
-                        SkinningJob {
-                            mesh,
-                            palette,
-                            positions: &mut out.0[at..at + v],
-                            normals: &mut out.1[at..at + v],
-                        }
-                        .run()?;
-                        palette_s += (t1 - t0).as_secs_f64();
-                        skin_s += t1.elapsed().as_secs_f64();
-                        at += v;
-                    }
+                    let (p, k) = skin_meshes(rig, palette, &mut self.out[ci], |skin, p| {
+                        crowd.skinning_matrices(id, skin, p)
+                    })?;
+                    palette_s += p;
+                    skin_s += k;
                 }
                 ci += 1;
             }

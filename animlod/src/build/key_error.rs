@@ -55,25 +55,26 @@ impl VariationTable {
     /// between (`(b − a) / 4 ·` the velocity variation over the bins `[a, b]` touches).
     #[inline]
     pub(crate) fn lerp_error(&self, a: f32, b: f32) -> f32 {
-        let n = self.prefix.len();
-        if n < 2 || self.bin <= 0.0 || b <= a {
+        0.25 * (b - a).max(0.0) * Self::sum(&self.prefix, self.bin, a, b)
+    }
+
+    /// The sum, from prefix sums `prefix`, over the bins (of width `bin`) that clip times `a`
+    /// to `b` touch (0 for an empty table or `b <= a`).
+    #[inline]
+    fn sum(prefix: &[f32], bin: f32, a: f32, b: f32) -> f32 {
+        let n = prefix.len();
+        if n < 2 || bin <= 0.0 || b <= a {
             return 0.0;
         }
-        let bin = |t: f32| ((t / self.bin) as usize).min(n - 2);
-        let (i, j) = (bin(a), bin(b));
-        0.25 * (b - a) * (self.prefix[j + 1] - self.prefix[i])
+        let at = |t: f32| ((t / bin) as usize).min(n - 2);
+        prefix[at(b) + 1] - prefix[at(a)]
     }
 
     /// Bound (model units) on how far any measured point moves from clip time `a` to `b`: the
     /// error of holding the pose of `a` until `b`.
     #[inline]
     pub(crate) fn hold_error(&self, a: f32, b: f32) -> f32 {
-        let n = self.path.len();
-        if n < 2 || self.bin <= 0.0 || b <= a {
-            return 0.0;
-        }
-        let bin = |t: f32| ((t / self.bin) as usize).min(n - 2);
-        self.path[bin(b) + 1] - self.path[bin(a)]
+        Self::sum(&self.path, self.bin, a, b)
     }
 }
 

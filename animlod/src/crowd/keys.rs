@@ -157,6 +157,28 @@ fn blend(moving: &[u32], from: &[Mat4], to: &[Mat4], w: f32, models: &mut [Mat4]
     }
 }
 
+/// A character's clip, its key-error table, its animated bone count, and the stats of a frame
+/// that changes nothing (every animated bone held).
+fn begin<'a>(
+    rig: &'a Rig,
+    c: &Character,
+) -> (&'a Clip, &'a crate::build::VariationTable, u64, FrameStats) {
+    let clip = &rig.clips()[c.clip.index()];
+    let animated = clip.animated.len() as u64;
+    let st = FrameStats {
+        characters: 1,
+        bones_constant: rig.bone_count() as u64 - animated,
+        bones_held: animated,
+        ..FrameStats::default()
+    };
+    (
+        clip,
+        &rig.priorities[c.clip.index()].variation,
+        animated,
+        st,
+    )
+}
+
 /// One character's interpolated frame: blend within the current key interval, or place the
 /// next key (restarting from exact poses when the interval cannot continue).
 fn advance_keyed_character(
@@ -167,15 +189,7 @@ fn advance_keyed_character(
     s: &mut Scratch,
     timing: bool,
 ) -> FrameStats {
-    let clip = &rig.clips()[c.clip.index()];
-    let table = &rig.priorities[c.clip.index()].variation;
-    let animated = clip.animated.len() as u64;
-    let mut st = FrameStats {
-        characters: 1,
-        bones_constant: rig.bone_count() as u64 - animated,
-        bones_held: animated,
-        ..FrameStats::default()
-    };
+    let (clip, table, animated, mut st) = begin(rig, c);
     let KeyLanes {
         locals,
         models,
@@ -304,16 +318,8 @@ fn advance_centred_character(
     s: &mut Scratch,
     timing: bool,
 ) -> FrameStats {
-    let clip = &rig.clips()[c.clip.index()];
-    let table = &rig.priorities[c.clip.index()].variation;
-    let animated = clip.animated.len() as u64;
-    let mut st = FrameStats {
-        characters: 1,
-        bones_constant: rig.bone_count() as u64 - animated,
-        bones_held: animated,
-        characters_frozen: 1,
-        ..FrameStats::default()
-    };
+    let (clip, table, animated, mut st) = begin(rig, c);
+    st.characters_frozen = 1;
     let KeyLanes {
         locals,
         models,

@@ -741,6 +741,16 @@ impl Crowd {
         out: &mut [Mat4],
     ) -> Result<usize, CrowdError> {
         let d = self.dense(id)?;
+        self.palette_of(skin, &self.models[self.span(d)], out)
+    }
+
+    /// A skin's palette from `models` into `out` (checked against the skin's joint count).
+    fn palette_of(
+        &self,
+        skin: SkinId,
+        models: &[Mat4],
+        out: &mut [Mat4],
+    ) -> Result<usize, CrowdError> {
         let s = self.rig.skin(skin).ok_or(CrowdError::UnknownSkin(skin))?;
         if out.len() < s.joints.len() {
             return Err(CrowdError::BufferTooSmall {
@@ -748,7 +758,6 @@ impl Crowd {
                 given: out.len(),
             });
         }
-        let models = &self.models[self.span(d)];
         Ok(palette(s, models, out))
     }
 
@@ -763,14 +772,7 @@ impl Crowd {
         out: &mut [Mat4],
     ) -> Result<usize, CrowdError> {
         let k = self.key_poses(id)?;
-        let s = self.rig.skin(skin).ok_or(CrowdError::UnknownSkin(skin))?;
-        if out.len() < s.joints.len() {
-            return Err(CrowdError::BufferTooSmall {
-                needed: s.joints.len(),
-                given: out.len(),
-            });
-        }
-        Ok(palette(s, if later { k.to } else { k.from }, out))
+        self.palette_of(skin, if later { k.to } else { k.from }, out)
     }
 }
 

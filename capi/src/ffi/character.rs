@@ -282,6 +282,39 @@ pub unsafe extern "C" fn slod_character_skinning_matrices(
     cap: usize,
     out_len: *mut usize,
 ) -> SlodResult {
+    // SAFETY: caller contract, passed on.
+    unsafe {
+        copy_palette(
+            world,
+            character,
+            skin,
+            out,
+            cap,
+            out_len,
+            |c, id, skin, m| c.skinning_matrices(id, skin, m),
+        )
+    }
+}
+
+/// Copies out a palette of skin `skin` that `write` computes for a character (the shared body
+/// of the skinning-matrix queries).
+///
+/// # Safety
+/// As `slod_character_skinning_matrices`.
+unsafe fn copy_palette(
+    world: *const SlodWorld,
+    character: SlodCharacterId,
+    skin: u32,
+    out: *mut f32,
+    cap: usize,
+    out_len: *mut usize,
+    write: impl Fn(
+        &Crowd,
+        CharacterId,
+        animlod::SkinId,
+        &mut [Mat4],
+    ) -> Result<usize, animlod::CrowdError>,
+) -> SlodResult {
     // `[f32; 16]` has the size of 16 floats and the alignment of one: `16 × cap` floats are
     // `cap` matrices.
     let out = out.cast::<[f32; 16]>();
@@ -294,8 +327,7 @@ pub unsafe extern "C" fn slod_character_skinning_matrices(
         SKINNING.with(|m| {
             let mut m = m.borrow_mut();
             m.resize(joints, Mat4::IDENTITY);
-            c.skinning_matrices(cid, skin, &mut m)
-                .map_err(crowd_error)?;
+            write(c, cid, skin, &mut m).map_err(crowd_error)?;
             // SAFETY: caller contract: `out` valid for `cap` writes, `out_len` for one.
             unsafe { copy_out_map(&m, Mat4::to_cols_array, out, cap, out_len, "out") }
         })
@@ -372,23 +404,18 @@ pub unsafe extern "C" fn slod_character_key_skinning_matrices(
     cap: usize,
     out_len: *mut usize,
 ) -> SlodResult {
-    // `[f32; 16]` has the size of 16 floats and the alignment of one.
-    let out = out.cast::<[f32; 16]>();
-    boundary(|| {
-        // SAFETY: caller contract: NULL or a live world.
-        let world = unsafe { arg(world, "world") }?;
-        let (c, cid) = character_ref(world, character)?;
-        let skin = check_skin(c.rig(), skin)?;
-        let joints = c.rig().skin(skin).map_or(0, |s| s.joints.len());
-        SKINNING.with(|m| {
-            let mut m = m.borrow_mut();
-            m.resize(joints, Mat4::IDENTITY);
-            c.key_skinning_matrices(cid, skin, later, &mut m)
-                .map_err(crowd_error)?;
-            // SAFETY: caller contract: `out` valid for `cap` writes, `out_len` for one.
-            unsafe { copy_out_map(&m, Mat4::to_cols_array, out, cap, out_len, "out") }
-        })
-    })
+    // SAFETY: caller contract, passed on.
+    unsafe {
+        copy_palette(
+            world,
+            character,
+            skin,
+            out,
+            cap,
+            out_len,
+            |c, id, skin, m| c.key_skinning_matrices(id, skin, later, m),
+        )
+    }
 }
 
 /// Makes a character play its clip once and stop on the last pose (`once` true), or loop it
