@@ -100,7 +100,10 @@ pub(crate) struct LargeReport {
     pub(crate) full_ms: f64,
     /// Frame time with LOD, one thread (ms).
     pub(crate) lod_ms: f64,
-    /// Frame time with LOD on `threads` threads (ms).
+    /// Frame time with LOD on one thread, the LOD crowd run alone (ms): the speed-up's
+    /// reference.
+    pub(crate) lod_serial_ms: f64,
+    /// Frame time with LOD on `threads` threads, the LOD crowd run alone (ms).
     pub(crate) lod_parallel_ms: f64,
     /// lod_ms / full_ms.
     pub(crate) cost_ratio: f64,
@@ -133,6 +136,7 @@ impl LargeReport {
             stages: "sample+concat+palette",
             full_ms: r.full_ms,
             lod_ms: r.lod_ms,
+            lod_serial_ms: r.lod_serial_ms,
             lod_parallel_ms: r.lod_parallel_ms,
             cost_ratio: r.cost_ratio(),
             mean_error_px: r.mean_error_px,
