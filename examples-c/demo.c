@@ -244,6 +244,15 @@ static int run_crowd(SlodWorld *world, const char *rig_path, unsigned characters
             CHECK(slod_character_skinning_matrices(world, ids[0], 0, sk, nj, &got));
             for (size_t i = 0; i < got; ++i)
                 for (int k = 0; k < 16; ++k) finite &= isfinite(sk[16 * i + k]) ? 1 : 0;
+            /* Interpolated key poses: a host skins each key pose once (its palette here) and
+             * blends the two skinned copies with the weight. */
+            float weight = 0.0f;
+            uint32_t update = 0;
+            CHECK(slod_character_key_state(world, ids[0], &weight, &update));
+            CHECK(slod_character_key_skinning_matrices(world, ids[0], 0, true, sk, nj, &got));
+            for (size_t i = 0; i < got; ++i)
+                for (int k = 0; k < 16; ++k) finite &= isfinite(sk[16 * i + k]) ? 1 : 0;
+            finite &= weight >= 0.0f && weight <= 1.0f && update <= SLOD_KEY_UPDATE_RESTARTED;
             free(sk);
         }
         printf("crowd matrices bones %zu finite %d\n", nb, finite);

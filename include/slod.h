@@ -299,6 +299,16 @@ enum SlodLodMode
    * The same camera ratio `ratio` (in [0, 1]) for every character.
    */
   SLOD_LOD_MODE_RATIO = 5,
+  /**
+   * Whole key poses at intervals, model matrices blended between the last two, the next key
+   * placed as far ahead as keeps every joint origin and tip within `max_error_px` pixels.
+   */
+  SLOD_LOD_MODE_INTERPOLATED = 6,
+  /**
+   * Whole key poses, each standing unchanged over a window centred on its time, within
+   * `max_error_px` pixels at every joint origin and tip (no blending).
+   */
+  SLOD_LOD_MODE_KEY_HOLD = 7,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -404,6 +414,37 @@ enum SlodBudgetShare
 typedef enum SlodBudgetShare SlodBudgetShare;
 #else
 typedef uint32_t SlodBudgetShare;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * What the last `slod_crowd_advance` changed in a character's key poses
+ * (`SLOD_LOD_MODE_INTERPOLATED`; values of `slod_character_key_state`'s `out_update`).
+ */
+enum SlodKeyUpdate
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /**
+   * Neither key pose changed (only the blend weight may have).
+   */
+  SLOD_KEY_UPDATE_UNCHANGED = 0,
+  /**
+   * The old later pose became the earlier one and a new later pose was evaluated: swap the
+   * host's two copies (skinned vertices or palettes) and recompute the later one.
+   */
+  SLOD_KEY_UPDATE_ADVANCED = 1,
+  /**
+   * Both key poses were evaluated anew: recompute both copies.
+   */
+  SLOD_KEY_UPDATE_RESTARTED = 2,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum SlodKeyUpdate SlodKeyUpdate;
+#else
+typedef uint32_t SlodKeyUpdate;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 
@@ -1224,7 +1265,9 @@ typedef struct SlodLodDesc {
    */
   uint32_t bone_updates_per_frame;
   /**
-   * `SLOD_LOD_MODE_ERROR_BOUND`: largest on-screen drift of a held bone, pixels (finite, > 0).
+   * `SLOD_LOD_MODE_ERROR_BOUND`: largest on-screen drift of a held bone;
+   * `SLOD_LOD_MODE_INTERPOLATED` and `SLOD_LOD_MODE_KEY_HOLD`: largest on-screen error of the
+   * shown pose (pixels, finite, > 0).
    */
   float max_error_px;
   /**
@@ -2567,6 +2610,45 @@ SlodResult slod_character_skinning_matrices(const struct SlodWorld *world,
                                             float *out,
                                             size_t cap,
                                             size_t *out_len);
+
+/**
+ * Writes a character's key-pose blend weight (in [0, 1]; the current pose is
+ * `earlier + (later − earlier) × weight`, matrix by matrix) to `*out_weight` and what the last
+ * `slod_crowd_advance` changed in its key poses (a `SlodKeyUpdate` value) to `*out_update`.
+ * A host skins each key pose once (`slod_character_key_skinning_matrices`) and blends the two
+ * skinned copies with the weight — the same vertices as skinning the blended pose. Outside
+ * `SLOD_LOD_MODE_INTERPOLATED` both key poses are the current pose and the weight is 1.
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_weight` and `out_update` NULL or valid for a write.
+ */
+SlodResult slod_character_key_state(const struct SlodWorld *world,
+                                    struct SlodCharacterId character,
+                                    float *out_weight,
+                                    uint32_t *out_update);
+
+/**
+ * Copies the skinning matrices of one of a character's key poses (`later` true: the later
+ * pose, else the earlier; see `slod_character_key_state`) for skin `skin` to `out`, laid out
+ * as in `slod_character_skinning_matrices`.
+ *
+ * Buffer: copy-out counted in matrices (`slod_rig_skin_joint_count`). Threads: reads the world
+ * only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT` for a bad skin index,
+ * `SLOD_RESULT_BUFFER_TOO_SMALL`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out` valid for `16 × cap` float writes (NULL if `cap` is 0);
+ * `out_len` valid for a write.
+ */
+SlodResult slod_character_key_skinning_matrices(const struct SlodWorld *world,
+                                                struct SlodCharacterId character,
+                                                uint32_t skin,
+                                                bool later,
+                                                float *out,
+                                                size_t cap,
+                                                size_t *out_len);
 
 /**
  * Makes a character play its clip once and stop on the last pose (`once` true), or loop it

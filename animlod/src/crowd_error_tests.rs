@@ -105,11 +105,10 @@ fn run_error_bound(rig: &Arc<Rig>, clip: ClipId, lod: LodMode, distance: f32) ->
     (sum.finish(), done as f64 / all.max(1) as f64)
 }
 
-#[test]
-fn error_bound_holds_on_every_bundled_rig_with_tips() {
-    // The 1 px error-bound mode keeps the rotation-aware error near its bound on every rig in
-    // assets/gltf, every clip, near and far: held chains sum their drifts, so the bound holds at
-    // every point (up to the chord-for-arc approximation of the hold rates).
+/// Runs every animated clip of every rig in assets/gltf under each of `modes`, near (3 rig
+/// heights) and far (30): checks each run's error with `check(max_px)` (false fails) and that
+/// the far run spends no more than the near one; returns the report.
+fn every_bundled_clip(modes: &[LodMode], check: impl Fn(f32) -> bool) -> String {
     let mut report = String::new();
     for file in BUNDLED {
         let rig = Arc::new(crate::build::import_path(&asset(file)).unwrap());
@@ -118,22 +117,104 @@ fn error_bound_holds_on_every_bundled_rig_with_tips() {
             if rig.clip(clip).unwrap().duration() <= 0.0 {
                 continue;
             }
-            for distance in [3.0, 30.0] {
-                let (e, spent) = run_error_bound(
-                    &rig,
-                    clip,
-                    LodMode::ErrorBound { max_error_px: 1.0 },
-                    distance,
-                );
-                report += &format!(
-                    "{file} clip {ci} at {distance}: max {:.2} px, mean {:.3} px, spent {:.2}\n",
-                    e.max_px, e.mean_px, spent
-                );
-                assert!(e.max_px <= 1.1, "{report}");
+            for &lod in modes {
+                let mut spent = Vec::new();
+                for distance in [3.0, 30.0] {
+                    let (e, s) = run_error_bound(&rig, clip, lod, distance);
+                    report += &format!(
+                        "{file} clip {ci} {lod:?} at {distance}: max {:.2} px, mean {:.3} px, \
+                         spent {:.2}\n",
+                        e.max_px, e.mean_px, s
+                    );
+                    assert!(check(e.max_px), "{report}");
+                    spent.push(s);
+                }
+                assert!(spent[1] <= spent[0] + 1e-9, "{report}");
             }
         }
     }
+    report
+}
+
+#[test]
+fn error_bound_holds_on_every_bundled_rig_with_tips() {
+    // The 1 px error-bound mode keeps the rotation-aware error near its bound on every rig in
+    // assets/gltf, every clip, near and far: held chains sum their drifts, so the bound holds at
+    // every point (up to the chord-for-arc approximation of the hold rates).
+    let report = every_bundled_clip(&[LodMode::ErrorBound { max_error_px: 1.0 }], |max| {
+        max <= 1.1
+    });
     println!("{report}");
+}
+
+#[test]
+fn key_poses_keep_the_bound_on_every_bundled_rig() {
+    // Blending between key poses, and holding each over a centred window, keep every joint
+    // origin and tip within the bound on every rig in assets/gltf, every clip, near and far,
+    // and spend fewer evaluations far than near. Velocities are sampled (16 points per 1/60 s):
+    // allow 2%.
+    let modes = [
+        LodMode::Interpolated { max_error_px: 1.0 },
+        LodMode::KeyHold { max_error_px: 1.0 },
+    ];
+    println!("{}", every_bundled_clip(&modes, |max| max <= 1.02));
+}
+
+#[test]
+fn key_poses_blend_to_the_model_matrices_and_name_what_changed() {
+    // A host that follows `KeyUpdate` (swap on Advanced, copy both on Restarted) keeps copies
+    // equal to the crowd's key poses, and blending them gives the model matrices; a centred
+    // hold always shows its later pose.
+    check_key_poses(LodMode::Interpolated { max_error_px: 1.0 });
+    check_key_poses(LodMode::KeyHold { max_error_px: 1.0 });
+}
+
+fn check_key_poses(lod: LodMode) {
+    let rig = Arc::new(crate::build::import_path(&asset("GDQuest_GDBot.glb")).unwrap());
+    let mut c = Crowd::new(rig.clone());
+    let ids: Vec<_> = (0..rig.clips().len())
+        .map(|i| {
+            let id = c
+                .add_character(Vec3::new(i as f32, 0.0, 0.0), ClipId::new(i))
+                .unwrap();
+            c.set_time(id, 0.1 * i as f32).unwrap();
+            id
+        })
+        .collect();
+    c.set_lod(lod).unwrap();
+    let view = view_at(40.0);
+    let mut host: Vec<[Vec<Mat4>; 2]> = ids
+        .iter()
+        .map(|&id| {
+            let k = c.key_poses(id).unwrap();
+            [k.from.to_vec(), k.to.to_vec()]
+        })
+        .collect();
+    let (mut advanced, mut unchanged) = (0, 0);
+    for _ in 0..120 {
+        c.advance(1.0 / 60.0, &view).unwrap();
+        for (&id, h) in ids.iter().zip(&mut host) {
+            let k = c.key_poses(id).unwrap();
+            match k.update {
+                KeyUpdate::Unchanged => unchanged += 1,
+                KeyUpdate::Advanced => {
+                    advanced += 1;
+                    h.swap(0, 1);
+                    h[1] = k.to.to_vec();
+                }
+                KeyUpdate::Restarted => *h = [k.from.to_vec(), k.to.to_vec()],
+            }
+            assert_eq!((&h[0][..], &h[1][..]), (k.from, k.to));
+            if matches!(lod, LodMode::KeyHold { .. }) {
+                assert_eq!(k.weight, 1.0);
+            }
+            for ((a, b), m) in k.from.iter().zip(k.to).zip(c.model_matrices(id).unwrap()) {
+                let blended = *a + (*b - *a) * k.weight;
+                assert!(blended.abs_diff_eq(*m, 1e-5));
+            }
+        }
+    }
+    assert!(advanced > 0 && unchanged > 0, "{advanced} {unchanged}");
 }
 
 #[test]
@@ -155,6 +236,15 @@ fn the_bound_holds_across_a_looping_wrap() {
     // speed (2 sin(ω/2)/ω = 0.96 for this 1 rad segment), so allow 2%; holding across the wrap
     // without its jump would be 1 rad off (~2 px here).
     assert!(worst <= 0.5 * 1.02, "{worst}");
+    // Key poses never interpolate across the wrap: they restart from exact poses.
+    c.set_lod(LodMode::Interpolated { max_error_px: 0.5 })
+        .unwrap();
+    let mut worst = 0.0f32;
+    for _ in 0..300 {
+        c.advance(1.0 / 60.0, &view).unwrap();
+        worst = worst.max(c.pose_error(id, &view).unwrap().max_px);
+    }
+    assert!(worst <= 0.5 * 1.02, "{worst}");
 }
 
 #[test]
@@ -172,6 +262,18 @@ fn play_once_stops_on_the_last_pose() {
     let leaf = c.model_matrices(id).unwrap()[1];
     let (_, rotation, _) = leaf.to_scale_rotation_translation();
     assert!(crate::transform::rotation_angle(rotation, Quat::from_rotation_z(1.0)) < 1e-4);
+    // With interpolated key poses too: the last key lands on the clip's end, and a finished
+    // character changes no more.
+    c.set_lod(LodMode::Interpolated { max_error_px: 1.0 })
+        .unwrap();
+    c.set_time(id, 0.5).unwrap();
+    for _ in 0..90 {
+        c.advance(1.0 / 60.0, &view).unwrap();
+    }
+    let leaf = c.model_matrices(id).unwrap()[1];
+    let (_, rotation, _) = leaf.to_scale_rotation_translation();
+    assert!(crate::transform::rotation_angle(rotation, Quat::from_rotation_z(1.0)) < 1e-4);
+    assert!(!c.pose_changed(id).unwrap());
     // A stale id is refused.
     c.remove_character(id).unwrap();
     assert!(c.set_play_once(id, false).is_err());
@@ -352,6 +454,8 @@ fn a_parallel_crowd_gives_the_serial_poses() {
             max: 40.0,
         },
         LodMode::ErrorBound { max_error_px: 1.0 },
+        LodMode::Interpolated { max_error_px: 1.0 },
+        LodMode::KeyHold { max_error_px: 1.0 },
     ] {
         let (mut serial, mut parallel) = (Crowd::new(rig.clone()), Crowd::new(rig.clone()));
         parallel.set_parallel(true);

@@ -14,12 +14,16 @@
 //!   [`salience::View`] give each its camera ratio Ω; the scheduler turns priority × Ω into an
 //!   update period per bone (the thesis' reading), [`LodMode::Budget`] spends a fixed number of
 //!   interpolations per frame over the crowd, and [`LodMode::ErrorBound`] holds a bone only while
-//!   the drift of it and its held ancestors stays under a pixel bound; [`Crowd::advance`]
+//!   the drift of it and its held ancestors stays under a pixel bound, and
+//!   [`LodMode::Interpolated`] / [`LodMode::KeyHold`] evaluate whole key poses at intervals
+//!   bounded by the build step's velocity tables and blend between them or hold each over a
+//!   window centred on its time ([`Crowd::key_poses`] tells a host which skinned copies to
+//!   recompute); [`Crowd::advance`]
 //!   samples, holds and concatenates (skipping subtrees that held); [`Crowd::pose_changed`]
 //!   says when a character's skinned output can be reused; [`Crowd::pose_error`] measures the
 //!   cost against full-rate evaluation at every joint's origin and tip ([`Skeleton::tip`]).
 //! - [`SkinningJob`] — CPU linear-blend skinning of a [`SkinnedMesh`] with a character's palette
-//!   ([`Crowd::skinning_matrices`]).
+//!   ([`Crowd::skinning_matrices`]); [`SkinBlendJob`] blends two skinned key poses.
 //!
 //! The thesis' crowd test and other experiments live in the `slod-experiments` crate.
 #![forbid(unsafe_code)]
@@ -42,11 +46,11 @@ mod transform;
 
 pub use build::{ImportOptions, ImportReport};
 pub use clip::{ChannelDesc, ChannelStats, Clip, ClipOptions, Interpolation, Keys, Property};
-pub use crowd::{Crowd, FrameStats, PrioritySource};
+pub use crowd::{Crowd, FrameStats, KeyPoses, KeyUpdate, PrioritySource};
 pub use error::{BuildError, CrowdError, ImportError};
 pub use ids::{BoneId, CharacterId, ClipId, SkinId};
 pub use lod::LodMode;
-pub use mesh::{SkinnedMesh, SkinningJob};
+pub use mesh::{SkinBlendJob, SkinnedMesh, SkinningJob};
 pub use pose_error::{ErrorSum, PoseError};
 pub use priority::{Factor, PriorityWeights};
 pub use rig::{Rig, Skin};

@@ -49,6 +49,35 @@ pub enum LodMode {
         /// Largest on-screen drift (pixels) a single held bone may cause.
         max_error_px: f32,
     },
+    /// Beyond the thesis and [`LodMode::ErrorBound`]: evaluate whole key poses at intervals and
+    /// interpolate the model matrices linearly between the last two, so that a bone's error is
+    /// second order in the interval (a hold's is first order). Each character's next key pose is
+    /// placed as far ahead (in whole frames of its current step) as keeps the interpolation's
+    /// bound on every joint origin and tip — a quarter of the interval times the velocity
+    /// variation over it, from the build step's table — under `max_error_px` at the
+    /// character's nearest visible depth; a looping clip's wrap and a camera that comes closer
+    /// than the bound allows restart from exact poses. A host skins the key poses
+    /// ([`crate::Crowd::key_poses`]) and blends the skinned vertices, which equals skinning the
+    /// blended matrices (skinning is linear in the palette). Invisible characters do not
+    /// animate.
+    Interpolated {
+        /// Largest on-screen displacement (pixels) of any joint origin or tip from its
+        /// full-detail position.
+        max_error_px: f32,
+    },
+    /// Whole key poses, each shown unchanged over a window of frames centred on its own time:
+    /// the pose of time `k` stands from `s ≤ k` to `e ≥ k`, with the path of every joint origin
+    /// and tip from `s` to `k` and from `k` to `e` (the build step's speed table) within
+    /// `max_error_px` at the character's nearest visible depth. A hold from the window's start
+    /// (what [`LodMode::ErrorBound`] does per bone) spends the tolerance in one direction; a
+    /// centred one spends it both ways, so a window is about twice as long, and no blending is
+    /// needed — between keys a character's pose, palette and skinned vertices stand unchanged
+    /// ([`crate::Crowd::key_poses`]: always weight 1). Invisible characters do not animate.
+    KeyHold {
+        /// Largest on-screen displacement (pixels) of any joint origin or tip from its
+        /// full-detail position.
+        max_error_px: f32,
+    },
 }
 
 impl LodMode {
@@ -70,6 +99,11 @@ impl LodMode {
     pub const DEFAULT_ERROR_BOUND: LodMode = LodMode::ErrorBound { max_error_px: 0.5 };
     /// Full detail for every character.
     pub const DEFAULT_RATIO: LodMode = LodMode::Ratio(1.0);
+    /// Interpolated key poses within half a pixel (the C ABI shares `max_error_px` with the
+    /// error bound, so the two defaults agree).
+    pub const DEFAULT_INTERPOLATED: LodMode = LodMode::Interpolated { max_error_px: 0.5 };
+    /// Centred key holds within half a pixel (sharing `max_error_px` in the C ABI).
+    pub const DEFAULT_KEY_HOLD: LodMode = LodMode::KeyHold { max_error_px: 0.5 };
 
     /// Checks the parameters: finite, `0 ≤ min < max`, `full_detail_px > 0`,
     /// `0 ≤ freeze_below_px < full_detail_px`, Ω in [0, 1].
@@ -92,8 +126,14 @@ impl LodMode {
                 "pixel size",
                 "needs finite 0 <= freeze_below_px < full_detail_px",
             )),
-            LodMode::ErrorBound { max_error_px: e } if e.is_finite() && e > 0.0 => Ok(()),
-            LodMode::ErrorBound { .. } => {
+            LodMode::ErrorBound { max_error_px: e }
+            | LodMode::Interpolated { max_error_px: e }
+            | LodMode::KeyHold { max_error_px: e }
+                if e.is_finite() && e > 0.0 =>
+            {
+                Ok(())
+            }
+            LodMode::ErrorBound { .. } | LodMode::Interpolated { .. } | LodMode::KeyHold { .. } => {
                 Err(invalid("max_error_px", "must be finite and positive"))
             }
         }

@@ -147,6 +147,9 @@ pub(crate) struct SubPriorities {
     /// Per animated-bone slot: the displacement (model units) a hold across the looping clip's
     /// end→start jump adds (the build step computes it).
     pub(crate) wrap_jump: Vec<f32>,
+    /// How fast the measured points' velocities change (the bound of
+    /// [`crate::LodMode::Interpolated`]).
+    pub(crate) variation: crate::build::VariationTable,
 }
 
 impl SubPriorities {

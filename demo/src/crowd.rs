@@ -227,6 +227,8 @@ pub(crate) struct CrowdSection {
     pub(crate) far_cost_ratio: FarCost,
     /// The whole per-character pipeline, per stage, with and without LOD.
     pub(crate) pipeline: crate::crowd_large::PipelineReport,
+    /// The pipeline under every LOD mode measured (`pipeline` is the last of them).
+    pub(crate) pipelines: Vec<crate::crowd_large::PipelineReport>,
     /// Large crowds (1,000 and 10,000 characters), one thread and every core.
     pub(crate) large: Vec<crate::crowd_large::LargeReport>,
     /// Per-bone priorities against every bone alike, and the derived weights in and out of
@@ -354,6 +356,14 @@ fn lod_report(lod: LodMode) -> LodReport {
             r.mode = "error_bound";
             r.max_error_px = Some(max_error_px);
         }
+        LodMode::Interpolated { max_error_px } => {
+            r.mode = "interpolated";
+            r.max_error_px = Some(max_error_px);
+        }
+        LodMode::KeyHold { max_error_px } => {
+            r.mode = "key_hold";
+            r.max_error_px = Some(max_error_px);
+        }
         LodMode::Off | LodMode::Ratio(_) | LodMode::PixelSize { .. } => r.mode = "other",
     }
     r
@@ -446,6 +456,7 @@ pub(crate) fn run(plan: &CrowdPlan, progress: Progress) -> Result<CrowdOutcome, 
             ours: ours_far,
         },
         pipeline: large.pipeline,
+        pipelines: large.pipelines,
         large: large.large,
         ablation: large.ablation,
         seconds: start.elapsed().as_secs_f64(),

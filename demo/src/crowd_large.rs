@@ -6,7 +6,7 @@
 
 use std::sync::Arc;
 
-use animlod::{ClipId, Rig};
+use animlod::{ClipId, LodMode, Rig};
 use serde::Serialize;
 use slod_experiments::ablation;
 use slod_experiments::crowd_large::{self, LargeRow, LargeSetup, PipelineRow, Stages, metric_rig};
@@ -18,6 +18,18 @@ use crate::progress::Progress;
 /// The error measure of every figure here.
 const ERROR_MEASURE: &str = "bone_tips";
 
+/// The LOD modes measured, with their report names: per-bone holds, whole key poses blended,
+/// and whole key poses held over centred windows, each within 1 px. The last is
+/// `crowd.pipeline` (the cheapest with CPU skinning); `crowd.pipelines` holds all three.
+const MODES: [(&str, LodMode); 3] = [
+    ("error_bound_1px", LodMode::ErrorBound { max_error_px: 1.0 }),
+    (
+        "interpolated_1px",
+        LodMode::Interpolated { max_error_px: 1.0 },
+    ),
+    ("key_hold_1px", LodMode::KeyHold { max_error_px: 1.0 }),
+];
+
 /// One pipeline's per-stage costs (ms per frame, summed over the crowd).
 #[derive(Clone, Debug, Serialize)]
 pub(crate) struct StagesReport {
@@ -27,8 +39,10 @@ pub(crate) struct StagesReport {
     pub(crate) concat_ms: f64,
     /// Skinning palette (model × inverse bind).
     pub(crate) palette_ms: f64,
-    /// CPU linear-blend skinning (positions and normals).
+    /// CPU linear-blend skinning (positions and normals), including `blend_ms`.
     pub(crate) skin_ms: f64,
+    /// Of `skin_ms`: blending two skinned key poses (interpolated mode only).
+    pub(crate) blend_ms: f64,
 }
 
 impl From<Stages> for StagesReport {
@@ -38,6 +52,7 @@ impl From<Stages> for StagesReport {
             concat_ms: s.concat_ms,
             palette_ms: s.palette_ms,
             skin_ms: s.skin_ms,
+            blend_ms: s.blend_ms,
         }
     }
 }
@@ -45,13 +60,16 @@ impl From<Stages> for StagesReport {
 /// `crowd.pipeline` in report.json.
 #[derive(Clone, Debug, Serialize)]
 pub(crate) struct PipelineReport {
+    /// The LOD mode (`error_bound_1px`, `interpolated_1px` or `key_hold_1px`).
+    pub(crate) lod_mode: &'static str,
     /// Characters.
     pub(crate) characters: usize,
     /// Vertices skinned per character.
     pub(crate) vertices: usize,
     /// LOD off: every stage for every character every frame.
     pub(crate) full: StagesReport,
-    /// Error bound 1 px: held characters reuse palette and skinned vertices.
+    /// With LOD: characters whose pose held reuse palette and skinned vertices; in the
+    /// interpolated mode only key poses are skinned and the output blends two skinned copies.
     pub(crate) lod: StagesReport,
     /// Fraction of character-frames skinned with LOD.
     pub(crate) lod_skinned_fraction: f64,
@@ -66,6 +84,8 @@ pub(crate) struct PipelineReport {
 /// One row of `crowd.large` in report.json.
 #[derive(Clone, Debug, Serialize)]
 pub(crate) struct LargeReport {
+    /// The LOD mode (`error_bound_1px`, `interpolated_1px` or `key_hold_1px`).
+    pub(crate) lod_mode: &'static str,
     /// Characters.
     pub(crate) characters: usize,
     /// Nearest character (m).
@@ -80,7 +100,10 @@ pub(crate) struct LargeReport {
     pub(crate) full_ms: f64,
     /// Frame time with LOD, one thread (ms).
     pub(crate) lod_ms: f64,
-    /// Frame time with LOD on `threads` threads (ms).
+    /// Frame time with LOD on one thread, the LOD crowd run alone (ms): the speed-up's
+    /// reference.
+    pub(crate) lod_serial_ms: f64,
+    /// Frame time with LOD on `threads` threads, the LOD crowd run alone (ms).
     pub(crate) lod_parallel_ms: f64,
     /// lod_ms / full_ms.
     pub(crate) cost_ratio: f64,
@@ -102,9 +125,10 @@ pub(crate) struct LargeReport {
     pub(crate) changed_fraction: f64,
 }
 
-impl From<&LargeRow> for LargeReport {
-    fn from(r: &LargeRow) -> LargeReport {
+impl LargeReport {
+    fn new(lod_mode: &'static str, r: &LargeRow) -> LargeReport {
         LargeReport {
+            lod_mode,
             characters: r.characters,
             near_m: r.near_m,
             far_m: r.far_m,
@@ -112,6 +136,7 @@ impl From<&LargeRow> for LargeReport {
             stages: "sample+concat+palette",
             full_ms: r.full_ms,
             lod_ms: r.lod_ms,
+            lod_serial_ms: r.lod_serial_ms,
             lod_parallel_ms: r.lod_parallel_ms,
             cost_ratio: r.cost_ratio(),
             mean_error_px: r.mean_error_px,
@@ -148,6 +173,7 @@ pub(crate) struct AblationReport {
 /// What this part adds to the crowd section.
 pub(crate) struct LargeOutcome {
     pub(crate) pipeline: PipelineReport,
+    pub(crate) pipelines: Vec<PipelineReport>,
     pub(crate) large: Vec<LargeReport>,
     pub(crate) ablation: Vec<AblationReport>,
     pub(crate) text: String,
@@ -176,34 +202,35 @@ pub(crate) fn run(
     let rig = Arc::new(metric_rig(base)?);
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let sizes: &[usize] = if quick { &[1000] } else { &[1000, 10_000] };
-    let bar = progress.bar(sizes.len() as u64 + 1, "crowd pipeline");
-    let mut setup = LargeSetup::new(if quick { 16 } else { 100 });
-    (setup.warmup_frames, setup.frames) = if quick { (2, 4) } else { (10, 30) };
-    let pipeline: PipelineRow = crowd_large::run_pipeline(&rig, &setup)?;
-    bar.inc(1);
-    let mut rows = Vec::new();
-    for &n in sizes {
-        let mut s = LargeSetup::new(n);
-        (s.warmup_frames, s.frames) = match (quick, n >= 10_000) {
-            (true, _) => (2, 3),
-            (false, false) => (10, 30),
-            (false, true) => (5, 10),
-        };
-        rows.push(crowd_large::run_large(&rig, &s, threads)?);
+    let bar = progress.bar((MODES.len() * (sizes.len() + 1)) as u64, "crowd pipeline");
+    let mut pipelines = Vec::new();
+    let mut large = Vec::new();
+    for (name, lod) in MODES {
+        let mut setup = LargeSetup::new(if quick { 16 } else { 100 });
+        setup.lod = lod;
+        (setup.warmup_frames, setup.frames) = if quick { (2, 4) } else { (10, 30) };
+        pipelines.push(pipeline_report(
+            name,
+            crowd_large::run_pipeline(&rig, &setup)?,
+        ));
         bar.inc(1);
+        for &n in sizes {
+            let mut s = LargeSetup::new(n);
+            s.lod = lod;
+            (s.warmup_frames, s.frames) = match (quick, n >= 10_000) {
+                (true, _) => (2, 3),
+                (false, false) => (10, 30),
+                (false, true) => (5, 10),
+            };
+            large.push(LargeReport::new(
+                name,
+                &crowd_large::run_large(&rig, &s, threads)?,
+            ));
+            bar.inc(1);
+        }
     }
     bar.finish_and_clear();
-    let pipeline = PipelineReport {
-        characters: pipeline.characters,
-        vertices: pipeline.vertices,
-        full: pipeline.full.into(),
-        lod: pipeline.lod.into(),
-        lod_skinned_fraction: pipeline.lod_skinned_fraction,
-        mean_error_px: pipeline.mean_error_px,
-        max_error_px: pipeline.max_error_px,
-        error_measure: ERROR_MEASURE,
-    };
-    let large: Vec<LargeReport> = rows.iter().map(LargeReport::from).collect();
+    let pipeline = pipelines.last().cloned().expect("three modes");
     let frames = if quick { 24 } else { 96 };
     let ablation: Vec<AblationReport> =
         ablation::run(&rig, &ablation_clips(&rig, played), 0.35, 4, frames)?
@@ -220,51 +247,91 @@ pub(crate) fn run(
             .collect();
     let text = format!(
         "{}\n{}\n{}",
-        render_pipeline(&pipeline),
+        render_pipeline(&pipelines.iter().collect::<Vec<_>>()),
         render_large(&large),
         render_ablation(&ablation)
     );
     Ok(LargeOutcome {
         pipeline,
+        pipelines,
         large,
         ablation,
         text,
     })
 }
 
-fn render_pipeline(p: &PipelineReport) -> String {
+/// The report of one pipeline measurement.
+fn pipeline_report(lod_mode: &'static str, pipeline: PipelineRow) -> PipelineReport {
+    PipelineReport {
+        lod_mode,
+        characters: pipeline.characters,
+        vertices: pipeline.vertices,
+        full: pipeline.full.into(),
+        lod: pipeline.lod.into(),
+        lod_skinned_fraction: pipeline.lod_skinned_fraction,
+        mean_error_px: pipeline.mean_error_px,
+        max_error_px: pipeline.max_error_px,
+        error_measure: ERROR_MEASURE,
+    }
+}
+
+fn render_pipeline(ps: &[&PipelineReport]) -> String {
+    let p0 = ps[0];
     let mut t = Table::new(
         format!(
             "Crowd pipeline: {} characters, {} skinned vertices each, 2-200 m, one thread (ms per frame)",
-            p.characters, p.vertices
+            p0.characters, p0.vertices
         ),
-        &["LOD", "sample", "concat", "palette", "skin", "total"],
+        &[
+            "LOD", "sample", "concat", "palette", "skin", "blend", "total", "cost", "skinned",
+            "mean px", "max px",
+        ],
     );
-    for (name, s) in [("off", &p.full), ("error bound 1 px", &p.lod)] {
-        t.row([
-            name.to_string(),
-            num(s.sample_ms, 3),
-            num(s.concat_ms, 3),
-            num(s.palette_ms, 3),
-            num(s.skin_ms, 3),
-            num(s.sample_ms + s.concat_ms + s.palette_ms + s.skin_ms, 3),
-        ]);
+    let total = |s: &StagesReport| s.sample_ms + s.concat_ms + s.palette_ms + s.skin_ms;
+    for p in ps {
+        for (name, s, lod) in [("off", &p.full, false), (p.lod_mode, &p.lod, true)] {
+            t.row([
+                name.replace('_', " "),
+                num(s.sample_ms, 3),
+                num(s.concat_ms, 3),
+                num(s.palette_ms, 3),
+                num(s.skin_ms, 3),
+                num(s.blend_ms, 3),
+                num(total(s), 3),
+                num(total(s) / total(&p.full).max(1e-12), 2),
+                if lod {
+                    num(p.lod_skinned_fraction, 2)
+                } else {
+                    "1".into()
+                },
+                if lod {
+                    num(p.mean_error_px as f64, 3)
+                } else {
+                    "0".into()
+                },
+                if lod {
+                    num(p.max_error_px as f64, 2)
+                } else {
+                    "0".into()
+                },
+            ]);
+        }
     }
-    t.note(format!(
-        "with LOD, {}% of character-frames were skinned (a character whose bones all held \
-         reuses its palette and vertices); error {} px mean, {} px max (bone tips).",
-        num(100.0 * p.lod_skinned_fraction, 0),
-        num(p.mean_error_px as f64, 3),
-        num(p.max_error_px as f64, 2)
-    ));
+    t.note(
+        "skinned: fraction of character-frames in which a pose was skinned (error bound: a \
+         character whose bones all held reuses its palette and vertices; interpolated: only \
+         key poses are skinned, the output blends the two skinned copies, blend included in \
+         skin). Errors at bone origins and tips against full detail every frame.",
+    );
     t.render()
 }
 
 fn render_large(rows: &[LargeReport]) -> String {
     let mut t = Table::new(
-        "Large crowds: 2-200 m in front of a camera outside the crowd, error bound 1 px \
+        "Large crowds: 2-200 m in front of a camera outside the crowd \
          (sample + concat + palette, ms per frame)",
         &[
+            "LOD",
             "characters",
             "full ms",
             "LOD ms",
@@ -280,6 +347,7 @@ fn render_large(rows: &[LargeReport]) -> String {
     );
     for r in rows {
         t.row([
+            r.lod_mode.replace('_', " "),
             r.characters.to_string(),
             num(r.full_ms, 2),
             num(r.lod_ms, 2),

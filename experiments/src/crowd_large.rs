@@ -19,7 +19,8 @@ use rayon::prelude::*;
 use salience::View;
 
 use animlod::{
-    BuildError, CharacterId, ClipId, Crowd, CrowdError, ErrorSum, LodMode, Rig, SkinningJob,
+    BuildError, CharacterId, ClipId, Crowd, CrowdError, ErrorSum, KeyUpdate, LodMode, Rig,
+    SkinBlendJob, SkinId, SkinningJob,
 };
 
 use crate::crowd::rig_height;
@@ -52,13 +53,13 @@ pub struct LargeSetup {
 }
 
 impl LargeSetup {
-    /// `characters` from 2 to 200 m, error bound 1 px, 1080 px high.
+    /// `characters` from 2 to 200 m, centred key holds within 1 px, 1080 px high.
     pub fn new(characters: usize) -> LargeSetup {
         LargeSetup {
             characters,
             near_m: 2.0,
             far_m: 200.0,
-            lod: LodMode::ErrorBound { max_error_px: 1.0 },
+            lod: LodMode::KeyHold { max_error_px: 1.0 },
             warmup_frames: 10,
             frames: 20,
             dt: 1.0 / 60.0,
@@ -105,6 +106,9 @@ pub struct LargeRow {
     /// Mean frame time with LOD on one thread (ms): the palette only for characters whose pose
     /// changed (a held character keeps last frame's).
     pub lod_ms: f64,
+    /// Mean frame time with LOD on one thread (ms), alternating frames with the parallel run
+    /// (the reference of the speed-up; `lod_ms` alternates frames with the full-detail crowd).
+    pub lod_serial_ms: f64,
     /// Mean frame time with LOD on `threads` threads (ms).
     pub lod_parallel_ms: f64,
     /// Mean on-screen error (px) over visible joints (origins and tips) and frames.
@@ -132,21 +136,37 @@ impl LargeRow {
         }
     }
 
-    /// One-thread LOD time over parallel LOD time.
+    /// One-thread LOD time over parallel LOD time, both of the LOD crowd run alone.
     pub fn parallel_speedup(&self) -> f64 {
         if self.lod_parallel_ms > 0.0 {
-            self.lod_ms / self.lod_parallel_ms
+            self.lod_serial_ms / self.lod_parallel_ms
         } else {
             0.0
         }
     }
 }
 
-/// A crowd split into shards, plus each character's palette per skin.
+/// A crowd split into shards, plus each character's palettes (every skin's joints, one after
+/// the other) of its two key poses (`[from, to]`, see [`Crowd::key_poses`]; outside the
+/// interpolated mode only `to` is used).
 struct Sharded {
     shards: Vec<Crowd>,
     ids: Vec<Vec<CharacterId>>,
-    palettes: Vec<Vec<Vec<Mat4>>>,
+    palettes: Vec<Vec<[Vec<Mat4>; 2]>>,
+}
+
+/// Writes every skin's palette of a character's key pose (`later`: `to`) into `out`.
+fn key_palette(
+    crowd: &Crowd,
+    id: CharacterId,
+    later: bool,
+    out: &mut [Mat4],
+) -> Result<(), CrowdError> {
+    let mut at = 0;
+    for s in 0..crowd.rig().skins().len() {
+        at += crowd.key_skinning_matrices(id, SkinId::new(s), later, &mut out[at..])?;
+    }
+    Ok(())
 }
 
 impl Sharded {
@@ -186,11 +206,8 @@ impl Sharded {
             .map(|v| {
                 v.iter()
                     .map(|_| {
-                        rig.skins()
-                            .iter()
-                            .flat_map(|s| s.joints.iter())
-                            .map(|_| Mat4::IDENTITY)
-                            .collect()
+                        let joints: usize = rig.skins().iter().map(|s| s.joints.len()).sum();
+                        [vec![Mat4::IDENTITY; joints], vec![Mat4::IDENTITY; joints]]
                     })
                     .collect()
             })
@@ -202,8 +219,10 @@ impl Sharded {
         })
     }
 
-    /// Advances every shard and rebuilds the palettes of characters whose pose changed (all of
-    /// them when `reuse` is false); returns interpolations and changed characters.
+    /// Advances every shard and rebuilds the palettes a host needs: with `reuse`, only those
+    /// of key poses that changed ([`KeyUpdate`]; a GPU host blends the two palettes in its
+    /// vertex shader); without, the current pose's of every character. Returns interpolations
+    /// and the characters whose palettes were rebuilt.
     fn frame(&mut self, dt: f32, view: &View, reuse: bool) -> Result<(u64, u64), CrowdError> {
         let results: Vec<Result<(u64, u64), CrowdError>> = self
             .shards
@@ -213,19 +232,19 @@ impl Sharded {
             .map(|((crowd, ids), palettes)| {
                 let st = crowd.advance(dt, view)?;
                 let mut changed = 0;
-                for (&id, palette) in ids.iter().zip(palettes.iter_mut()) {
-                    if reuse && !crowd.pose_changed(id)? {
-                        continue;
+                for (&id, [from, to]) in ids.iter().zip(palettes.iter_mut()) {
+                    let update = if reuse {
+                        crowd.key_poses(id)?.update
+                    } else {
+                        KeyUpdate::Advanced
+                    };
+                    match update {
+                        KeyUpdate::Unchanged => continue,
+                        KeyUpdate::Advanced => std::mem::swap(from, to),
+                        KeyUpdate::Restarted => key_palette(crowd, id, false, from)?,
                     }
+                    key_palette(crowd, id, true, to)?;
                     changed += 1;
-                    let mut at = 0;
-                    for s in 0..crowd.rig().skins().len() {
-                        at += crowd.skinning_matrices(
-                            id,
-                            animlod::SkinId::new(s),
-                            &mut palette[at..],
-                        )?;
-                    }
                 }
                 Ok((st.bones_interpolated, changed))
             })
@@ -309,19 +328,26 @@ pub fn run_large(
             lod.poses(),
         ))
     })?;
+    // The LOD crowd without the full-detail one, on one thread and on `threads`, frame by frame
+    // in lockstep (a change of machine load hits both alike): the speed-up compares like with
+    // like.
     let many = pool(threads.max(1))?;
-    let (lod_parallel_ms, parallel_poses) = many.install(|| {
-        let mut lod = Sharded::new(rig, setup, setup.lod)?;
-        for _ in 0..setup.warmup_frames {
-            lod.frame(setup.dt, &view, true)?;
-        }
+    let mut serial = Sharded::new(rig, setup, setup.lod)?;
+    let mut parallel = Sharded::new(rig, setup, setup.lod)?;
+    let (mut ts, mut tp) = (0.0f64, 0.0f64);
+    for frame in 0..setup.warmup_frames + setup.frames {
         let t0 = Instant::now();
-        for _ in 0..setup.frames {
-            lod.frame(setup.dt, &view, true)?;
+        one.install(|| serial.frame(setup.dt, &view, true))?;
+        let t1 = Instant::now();
+        many.install(|| parallel.frame(setup.dt, &view, true))?;
+        if frame >= setup.warmup_frames {
+            ts += (t1 - t0).as_secs_f64();
+            tp += t1.elapsed().as_secs_f64();
         }
-        let ms = t0.elapsed().as_secs_f64() * 1e3 / setup.frames.max(1) as f64;
-        Ok::<_, CrowdError>((ms, lod.poses()))
-    })?;
+    }
+    let frames = setup.frames.max(1) as f64;
+    let (lod_serial_ms, lod_parallel_ms) = (ts * 1e3 / frames, tp * 1e3 / frames);
+    let parallel_poses = parallel.poses();
     Ok(LargeRow {
         characters: setup.characters,
         near_m: setup.near_m,
@@ -329,6 +355,7 @@ pub fn run_large(
         threads: threads.max(1),
         full_ms,
         lod_ms,
+        lod_serial_ms,
         lod_parallel_ms,
         mean_error_px: sum.mean_px,
         max_error_px: sum.max_px,
@@ -348,8 +375,12 @@ pub struct Stages {
     pub concat_ms: f64,
     /// Skinning palette (model × inverse bind).
     pub palette_ms: f64,
-    /// CPU linear-blend skinning of the rig's meshes (positions and normals).
+    /// CPU linear-blend skinning of the rig's meshes (positions and normals), including
+    /// `blend_ms`.
     pub skin_ms: f64,
+    /// Of `skin_ms`: blending the two skinned key poses ([`SkinBlendJob`]; interpolated mode
+    /// only).
+    pub blend_ms: f64,
 }
 
 /// The pipeline measured on one thread, without and with LOD.
@@ -361,9 +392,10 @@ pub struct PipelineRow {
     pub vertices: usize,
     /// Full detail, every stage for every character every frame.
     pub full: Stages,
-    /// With LOD: held characters reuse their palette and skinned vertices.
+    /// With LOD: only key poses that changed are skinned; the output blends two skinned copies.
     pub lod: Stages,
-    /// Fraction of character-frames skinned with LOD (the rest reused their output).
+    /// Fraction of character-frames with LOD in which a key pose was skinned (the rest reused
+    /// or blended their copies).
     pub lod_skinned_fraction: f64,
     /// Mean on-screen error (px) with LOD (bone tips).
     pub mean_error_px: f32,
@@ -371,91 +403,217 @@ pub struct PipelineRow {
     pub max_error_px: f32,
 }
 
+/// One character's skinned output on the host: the skinned key poses (`[from, to]`, positions
+/// and normals of every mesh one after the other) and the blended output.
+struct HostSkin {
+    keys: [(Vec<Vec3>, Vec<Vec3>); 2],
+    out: (Vec<Vec3>, Vec<Vec3>),
+}
+
+/// Skins every mesh of the rig into `out` (positions and normals, mesh after mesh), each with
+/// the palette `write_palette` writes for its skin; returns the seconds spent on palettes and
+/// on skinning.
+fn skin_meshes(
+    rig: &Rig,
+    palette: &mut Vec<Mat4>,
+    out: &mut (Vec<Vec3>, Vec<Vec3>),
+    mut write_palette: impl FnMut(SkinId, &mut [Mat4]) -> Result<usize, CrowdError>,
+) -> Result<(f64, f64), CrowdError> {
+    let (mut at, mut palette_s, mut skin_s) = (0, 0.0, 0.0);
+    for mesh in rig.meshes() {
+        let joints = rig.skin(mesh.skin).map_or(0, |s| s.joints.len());
+        palette.resize(joints, Mat4::IDENTITY);
+        let t0 = Instant::now();
+        write_palette(mesh.skin, palette)?;
+        let t1 = Instant::now();
+        let v = mesh.vertex_count();
+        SkinningJob {
+            mesh,
+            palette,
+            positions: &mut out.0[at..at + v],
+            normals: &mut out.1[at..at + v],
+        }
+        .run()?;
+        palette_s += (t1 - t0).as_secs_f64();
+        skin_s += t1.elapsed().as_secs_f64();
+        at += v;
+    }
+    Ok((palette_s, skin_s))
+}
+
+/// Skins every mesh of a character's key pose (`later`: `to`) into `out`.
+fn skin_key(
+    rig: &Rig,
+    crowd: &Crowd,
+    id: CharacterId,
+    later: bool,
+    palette: &mut Vec<Mat4>,
+    out: &mut (Vec<Vec3>, Vec<Vec3>),
+) -> Result<(), CrowdError> {
+    skin_meshes(rig, palette, out, |skin, p| {
+        crowd.key_skinning_matrices(id, skin, later, p)
+    })?;
+    Ok(())
+}
+
+/// One LOD mode's side of the pipeline measurement: the crowd, the host's skinned output and
+/// the stage times so far.
+struct PipelineRun {
+    s: Sharded,
+    /// Whether the host keeps one skinned copy per key pose (the LOD side) or skins the current
+    /// pose of every character every frame (full detail).
+    keyed: bool,
+    out: Vec<(Vec<Vec3>, Vec<Vec3>)>,
+    host: Vec<HostSkin>,
+    palette: Vec<Mat4>,
+    stages: Stages,
+    skinned: u64,
+}
+
+impl PipelineRun {
+    fn new(
+        rig: &Arc<Rig>,
+        setup: &LargeSetup,
+        lod: LodMode,
+        keyed: bool,
+    ) -> Result<Self, CrowdError> {
+        let mut s = Sharded::new(rig, setup, lod)?;
+        s.shards.iter_mut().for_each(|c| c.set_stage_timing(true));
+        let vertices: usize = rig.meshes().iter().map(|m| m.vertex_count()).sum();
+        let n = setup.characters;
+        let buffer = || (vec![Vec3::ZERO; vertices], vec![Vec3::ZERO; vertices]);
+        let (out, host) = if keyed {
+            let host = (0..n)
+                .map(|_| HostSkin {
+                    keys: [buffer(), buffer()],
+                    out: buffer(),
+                })
+                .collect();
+            (Vec::new(), host)
+        } else {
+            ((0..n).map(|_| buffer()).collect(), Vec::new())
+        };
+        Ok(PipelineRun {
+            s,
+            keyed,
+            out,
+            host,
+            palette: Vec::new(),
+            stages: Stages::default(),
+            skinned: 0,
+        })
+    }
+
+    /// One frame: advance, then the host's palettes and skinning; times added when `measured`.
+    fn frame(
+        &mut self,
+        rig: &Rig,
+        setup: &LargeSetup,
+        view: &View,
+        measured: bool,
+    ) -> Result<(), CrowdError> {
+        let mut st = animlod::FrameStats::default();
+        let (mut palette_s, mut skin_s, mut blend_s) = (0.0f64, 0.0f64, 0.0f64);
+        let mut ci = 0;
+        let palette = &mut self.palette;
+        for (crowd, ids) in self.s.shards.iter_mut().zip(&self.s.ids) {
+            st += crowd.advance(setup.dt, view)?;
+            for &id in ids {
+                if self.keyed {
+                    let t0 = Instant::now();
+                    let h = &mut self.host[ci];
+                    let keys = crowd.key_poses(id)?;
+                    match keys.update {
+                        KeyUpdate::Unchanged => {}
+                        KeyUpdate::Advanced => {
+                            h.keys.swap(0, 1);
+                            skin_key(rig, crowd, id, true, palette, &mut h.keys[1])?;
+                        }
+                        KeyUpdate::Restarted => {
+                            skin_key(rig, crowd, id, false, palette, &mut h.keys[0])?;
+                            skin_key(rig, crowd, id, true, palette, &mut h.keys[1])?;
+                        }
+                    }
+                    self.skinned += (measured && keys.update != KeyUpdate::Unchanged) as u64;
+                    let t1 = Instant::now();
+                    if crowd.pose_changed(id)? && keys.weight > 0.0 && keys.weight < 1.0 {
+                        let [a, b] = &h.keys;
+                        SkinBlendJob {
+                            from: (&a.0, &a.1),
+                            to: (&b.0, &b.1),
+                            weight: keys.weight,
+                            positions: &mut h.out.0,
+                            normals: &mut h.out.1,
+                        }
+                        .run()?;
+                    }
+                    skin_s += t0.elapsed().as_secs_f64();
+                    blend_s += t1.elapsed().as_secs_f64();
+                } else {
+                    let (p, k) = skin_meshes(rig, palette, &mut self.out[ci], |skin, p| {
+                        crowd.skinning_matrices(id, skin, p)
+                    })?;
+                    palette_s += p;
+                    skin_s += k;
+                }
+                ci += 1;
+            }
+        }
+        if measured {
+            let x = &mut self.stages;
+            x.sample_ms += st.sample_ns as f64 * 1e-6;
+            x.concat_ms += st.concat_ns as f64 * 1e-6;
+            x.palette_ms += palette_s * 1e3;
+            x.skin_ms += skin_s * 1e3;
+            x.blend_ms += blend_s * 1e3;
+        }
+        Ok(())
+    }
+
+    /// The stage times per measured frame.
+    fn per_frame(&self, frames: usize) -> Stages {
+        let f = frames.max(1) as f64;
+        let x = &self.stages;
+        Stages {
+            sample_ms: x.sample_ms / f,
+            concat_ms: x.concat_ms / f,
+            palette_ms: x.palette_ms / f,
+            skin_ms: x.skin_ms / f,
+            blend_ms: x.blend_ms / f,
+        }
+    }
+}
+
 /// Measures every stage of the pipeline for `setup.characters` characters on one thread, with
-/// LOD off and with `setup.lod` (held characters reuse their palette and skinned output).
+/// LOD off and with `setup.lod`, the two advanced in lockstep (a frame of one, then the same
+/// frame of the other, so that a change of machine load hits both alike). With LOD the host
+/// keeps its skinned output per key pose ([`Crowd::key_poses`]): it skins only key poses that
+/// changed, blends the two skinned copies when the weight is strictly between 0 and 1 (at 0 or
+/// 1 a copy is the output), and reuses everything for a character whose pose did not change
+/// (palette time is part of `skin_ms` there; `palette_ms` counts LOD off's palettes). The
+/// error compares the two crowds' model matrices every measured frame (bone origins and tips).
 pub fn run_pipeline(rig: &Arc<Rig>, setup: &LargeSetup) -> Result<PipelineRow, CrowdError> {
     let view = setup.view()?;
     let vertices: usize = rig.meshes().iter().map(|m| m.vertex_count()).sum();
+    let mut full = PipelineRun::new(rig, setup, LodMode::Off, false)?;
+    let mut lod = PipelineRun::new(rig, setup, setup.lod, true)?;
     let mut sum = ErrorSum::default();
-    let mut stages = [Stages::default(); 2];
-    let mut reference: Option<Vec<Vec<Mat4>>> = None;
-    let mut skinned = 0u64;
-    for (k, lod) in [LodMode::Off, setup.lod].into_iter().enumerate() {
-        let mut s = Sharded::new(rig, setup, lod)?;
-        s.shards.iter_mut().for_each(|c| c.set_stage_timing(true));
-        let n = setup.characters;
-        let mut out_p = vec![vec![Vec3::ZERO; vertices]; n];
-        let mut out_n = vec![vec![Vec3::ZERO; vertices]; n];
-        let mut palette = Vec::new();
-        let mut poses_per_frame = Vec::new();
-        for frame in 0..setup.warmup_frames + setup.frames {
-            let measured = frame >= setup.warmup_frames;
-            let mut st = animlod::FrameStats::default();
-            let (mut palette_s, mut skin_s) = (0.0f64, 0.0f64);
-            let mut c_index = 0;
-            for (crowd, ids) in s.shards.iter_mut().zip(&s.ids) {
-                st += crowd.advance(setup.dt, &view)?;
-                for &id in ids {
-                    let ci = c_index;
-                    c_index += 1;
-                    if k == 1 && !crowd.pose_changed(id)? {
-                        continue;
-                    }
-                    skinned += (k == 1 && measured) as u64;
-                    let mut at = 0;
-                    for mesh in rig.meshes() {
-                        let joints = rig.skin(mesh.skin).map_or(0, |s| s.joints.len());
-                        palette.resize(joints, Mat4::IDENTITY);
-                        let t0 = Instant::now();
-                        crowd.skinning_matrices(id, mesh.skin, &mut palette)?;
-                        let t1 = Instant::now();
-                        let v = mesh.vertex_count();
-                        SkinningJob {
-                            mesh,
-                            palette: &palette,
-                            positions: &mut out_p[ci][at..at + v],
-                            normals: &mut out_n[ci][at..at + v],
-                        }
-                        .run()?;
-                        palette_s += (t1 - t0).as_secs_f64();
-                        skin_s += t1.elapsed().as_secs_f64();
-                        at += v;
-                    }
-                }
-            }
-            if measured {
-                let x = &mut stages[k];
-                x.sample_ms += st.sample_ns as f64 * 1e-6;
-                x.concat_ms += st.concat_ns as f64 * 1e-6;
-                x.palette_ms += palette_s * 1e3;
-                x.skin_ms += skin_s * 1e3;
-                poses_per_frame.push(s.poses());
-            }
-        }
-        let frames = setup.frames.max(1) as f64;
-        let x = &mut stages[k];
-        (x.sample_ms, x.concat_ms, x.palette_ms, x.skin_ms) = (
-            x.sample_ms / frames,
-            x.concat_ms / frames,
-            x.palette_ms / frames,
-            x.skin_ms / frames,
-        );
-        match &reference {
-            None => reference = Some(poses_per_frame),
-            Some(full) => {
-                let sk = rig.skeleton();
-                let bones = sk.len();
-                let worlds = s
-                    .shards
-                    .iter()
-                    .zip(&s.ids)
-                    .flat_map(|(c, ids)| ids.iter().map(|&id| c.world_transform(id)))
-                    .collect::<Result<Vec<_>, _>>()?;
-                for (a, b) in poses_per_frame.iter().zip(full) {
-                    for (i, w) in worlds.iter().enumerate() {
-                        let r = i * bones..(i + 1) * bones;
-                        sum.add_pose(sk, &a[r.clone()], &b[r], w, &view);
-                    }
+    let sk = rig.skeleton();
+    for frame in 0..setup.warmup_frames + setup.frames {
+        let measured = frame >= setup.warmup_frames;
+        full.frame(rig, setup, &view, measured)?;
+        lod.frame(rig, setup, &view, measured)?;
+        if measured {
+            for s in 0..SHARDS {
+                let (a, b) = (&full.s.shards[s], &lod.s.shards[s]);
+                for (&x, &y) in full.s.ids[s].iter().zip(&lod.s.ids[s]) {
+                    sum.add_pose(
+                        sk,
+                        b.model_matrices(y)?,
+                        a.model_matrices(x)?,
+                        &a.world_transform(x)?,
+                        &view,
+                    );
                 }
             }
         }
@@ -464,9 +622,9 @@ pub fn run_pipeline(rig: &Arc<Rig>, setup: &LargeSetup) -> Result<PipelineRow, C
     Ok(PipelineRow {
         characters: setup.characters,
         vertices,
-        full: stages[0],
-        lod: stages[1],
-        lod_skinned_fraction: skinned as f64
+        full: full.per_frame(setup.frames),
+        lod: lod.per_frame(setup.frames),
+        lod_skinned_fraction: lod.skinned as f64
             / (setup.frames.max(1) * setup.characters.max(1)) as f64,
         mean_error_px: e.mean_px,
         max_error_px: e.max_px,

@@ -285,6 +285,24 @@ void crowd_checks(slod::World &world, const char *rig_path) {
     s = crowd.advance(1.0f / 30.0f);
     EXPECT(s.bones_interpolated == 0);
     EXPECT(s.characters_frozen == 12);
+    // Interpolated key poses: each key pose's palette is reachable, the weight is in [0, 1].
+    SlodLodDesc keyed = slod_default_lod_desc();
+    keyed.mode = SLOD_LOD_MODE_INTERPOLATED;
+    keyed.max_error_px = 1.0f;
+    crowd.set_lod(keyed);
+    world.set_camera(camera_at(20.0f));
+    for (int f = 0; f < 3; ++f) crowd.advance(1.0f / 60.0f);
+    float weight = -1.0f;
+    uint32_t update = 99;
+    EXPECT(slod_character_key_state(world.get(), chars[0], &weight, &update) == SLOD_RESULT_OK);
+    EXPECT(weight >= 0.0f && weight <= 1.0f && update <= SLOD_KEY_UPDATE_RESTARTED);
+    std::vector<float> key_palette(16 * rig.skin_joint_count(0));
+    size_t got = 0;
+    EXPECT(slod_character_key_skinning_matrices(world.get(), chars[0], 0, true, key_palette.data(),
+                                                rig.skin_joint_count(0), &got) == SLOD_RESULT_OK);
+    EXPECT(got == rig.skin_joint_count(0));
+    EXPECT(slod_character_key_skinning_matrices(world.get(), chars[0], 99, false, nullptr, 0,
+                                                &got) == SLOD_RESULT_INVALID_ARGUMENT);
     lod.range_max = -1.0f;
     EXPECT_ERROR(crowd.set_lod(lod), SLOD_RESULT_INVALID_ARGUMENT);
     EXPECT(slod::last_error().find("range") != std::string::npos);

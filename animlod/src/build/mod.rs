@@ -6,6 +6,7 @@
 
 pub mod analysis;
 mod import;
+mod key_error;
 mod priorities;
 
 use std::path::Path;
@@ -20,6 +21,7 @@ use crate::rig::{Rig, Skin};
 use crate::skeleton::{BoneDesc, Skeleton};
 
 pub use import::{ImportOptions, ImportReport};
+pub(crate) use key_error::VariationTable;
 use priorities::priorities;
 
 #[cfg(test)]

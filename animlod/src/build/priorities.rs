@@ -104,6 +104,7 @@ pub(crate) fn priorities(clip: &Clip, skeleton: &Skeleton) -> SubPriorities {
         hold_sum,
         hold_max_peak,
         wrap_jump: wrap_jumps(clip, skeleton),
+        variation: super::key_error::variation_table(clip, skeleton),
     }
 }
 

@@ -87,7 +87,12 @@ pub(super) fn step_row<'a>(
 /// Full-detail model-space pass over the bones that move in this clip (a precomputed list, so
 /// no per-bone flag tests).
 #[inline]
-fn concat_moving(parents: &[u32], moving: &[u32], locals: &[Affine3A], models: &mut [Mat4]) {
+pub(super) fn concat_moving(
+    parents: &[u32],
+    moving: &[u32],
+    locals: &[Affine3A],
+    models: &mut [Mat4],
+) {
     for &b in moving {
         let b = b as usize;
         let p = parents[b];
@@ -124,7 +129,14 @@ impl Crowd {
             .skeleton()
             .model_matrices(locals, &mut self.models[span.clone()]);
         self.last_update[span.clone()].fill(c.clock);
-        self.drift[span].fill(0.0);
+        self.drift[span.clone()].fill(0.0);
+        if self.keyed() {
+            self.key_from[span.clone()].copy_from_slice(&self.models[span.clone()]);
+            self.key_to[span.clone()].copy_from_slice(&self.models[span]);
+            let c = &mut self.chars[d];
+            (c.key_from, c.key_to, c.key_error) = (c.time, c.time, 0.0);
+            (c.stale, c.key_update, c.holding) = (false, KeyUpdate::Restarted, false);
+        }
     }
 
     /// Advances every character by `dt` seconds (finite, ≥ 0) and updates their poses under the
@@ -170,7 +182,11 @@ impl Crowd {
             c.near_ppu = view.max_pixels_per_unit(world, radius) * c.scale;
             let visible = view.sphere_in_view(world, radius);
             c.omega = match lod {
-                LodMode::Off | LodMode::Budget { .. } | LodMode::ErrorBound { .. } => 1.0,
+                LodMode::Off
+                | LodMode::Budget { .. }
+                | LodMode::ErrorBound { .. }
+                | LodMode::Interpolated { .. }
+                | LodMode::KeyHold { .. } => 1.0,
                 LodMode::Ratio(o) => o,
                 LodMode::Range { min, max } => {
                     if visible {
@@ -184,6 +200,12 @@ impl Crowd {
                     freeze_below_px,
                 } => omega_from_pixels(c.size_px, full_detail_px, freeze_below_px),
             };
+        }
+        if let LodMode::Interpolated { max_error_px } | LodMode::KeyHold { max_error_px } = lod {
+            let centred = matches!(lod, LodMode::KeyHold { .. });
+            let stats = self.advance_keyed(max_error_px, centred);
+            self.last_stats = stats;
+            return Ok(stats);
         }
         let budget = match lod {
             // A budget that covers every animated bone takes LOD off's path (one block pass per

@@ -59,8 +59,14 @@ pub struct FrameStats {
     /// interpolating, composing local matrices); 0 otherwise.
     pub sample_ns: u64,
     /// With [`Crowd::set_stage_timing`] on: nanoseconds spent concatenating local to model
-    /// matrices; 0 otherwise.
+    /// matrices (and, in [`LodMode::Interpolated`], blending them between key poses); 0
+    /// otherwise.
     pub concat_ns: u64,
+    /// [`LodMode::Interpolated`]: model matrices blended between two key poses (no sampling,
+    /// no concatenation).
+    pub bones_blended: u64,
+    /// [`LodMode::Interpolated`]: whole key poses evaluated (sampled and concatenated).
+    pub key_poses: u64,
 }
 
 impl std::ops::AddAssign for FrameStats {
@@ -73,6 +79,8 @@ impl std::ops::AddAssign for FrameStats {
         self.bones_concatenated += o.bones_concatenated;
         self.sample_ns += o.sample_ns;
         self.concat_ns += o.concat_ns;
+        self.bones_blended += o.bones_blended;
+        self.key_poses += o.key_poses;
     }
 }
 
@@ -109,6 +117,49 @@ struct Character {
     near_ppu: f32,
     /// Whether any model matrix changed in the last advance (or evaluation).
     changed: bool,
+    /// [`LodMode::Interpolated`]: clip times of the two key poses the model matrices are
+    /// blended between.
+    key_from: f32,
+    key_to: f32,
+    /// [`LodMode::Interpolated`]: bound (model units) on the blend's error over the interval.
+    key_error: f32,
+    /// [`LodMode::Interpolated`]: the character was skipped while invisible; it restarts from
+    /// exact poses when it comes back into view.
+    stale: bool,
+    /// What the last advance did to the key poses.
+    key_update: KeyUpdate,
+    /// [`LodMode::Interpolated`]: holding the `to` pose past the interval's end.
+    holding: bool,
+}
+
+/// What the last [`Crowd::advance`] did to a character's key poses ([`Crowd::key_poses`]):
+/// what a host that keeps one skinned copy (or palette) per key pose must recompute.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum KeyUpdate {
+    /// Neither key pose changed (only the blend weight may have).
+    #[default]
+    Unchanged,
+    /// The old `to` became `from` and a new `to` was evaluated: swap the two copies and
+    /// recompute `to`'s.
+    Advanced,
+    /// Both key poses were evaluated anew (first frame, a looping clip's wrap, a jump in time,
+    /// a mode change, a camera that came closer than the bound allows): recompute both.
+    Restarted,
+}
+
+/// A character's two key poses and the blend weight of its current pose:
+/// `model = from + (to − from) · weight`, matrix by matrix. Outside
+/// [`LodMode::Interpolated`], `from` and `to` are both the current model matrices, weight 1.
+#[derive(Clone, Copy, Debug)]
+pub struct KeyPoses<'a> {
+    /// Model matrices of the earlier key pose (skeleton model space).
+    pub from: &'a [Mat4],
+    /// Model matrices of the later key pose.
+    pub to: &'a [Mat4],
+    /// Blend weight in [0, 1] of `to`.
+    pub weight: f32,
+    /// What the last advance changed.
+    pub update: KeyUpdate,
 }
 
 impl Character {
@@ -175,6 +226,10 @@ pub struct Crowd {
     chars: Vec<Character>,
     locals: Vec<Affine3A>,
     models: Vec<Mat4>,
+    /// [`LodMode::Interpolated`] only (empty otherwise): per character, the model matrices of
+    /// the earlier and the later key pose (same stride as `models`).
+    key_from: Vec<Mat4>,
+    key_to: Vec<Mat4>,
     /// Per character, per animated-bone slot of its clip: clock time of the last interpolation.
     last_update: Vec<f32>,
     /// Per character, per animated-bone slot: bound on the drift of its hold so far (model
@@ -224,6 +279,8 @@ impl Crowd {
             chars: Vec::new(),
             locals: Vec::new(),
             models: Vec::new(),
+            key_from: Vec::new(),
+            key_to: Vec::new(),
             last_update: Vec::new(),
             drift: Vec::new(),
             lod: LodMode::default(),
@@ -317,11 +374,21 @@ impl Crowd {
             step: 0.0,
             near_ppu: 0.0,
             changed: true,
+            key_from: 0.0,
+            key_to: 0.0,
+            key_error: 0.0,
+            stale: false,
+            key_update: KeyUpdate::Restarted,
+            holding: false,
         });
         let n = self.stride;
         self.locals
             .extend(std::iter::repeat_n(Affine3A::IDENTITY, n));
         self.models.extend(std::iter::repeat_n(Mat4::IDENTITY, n));
+        if self.keyed() {
+            self.key_from.extend(std::iter::repeat_n(Mat4::IDENTITY, n));
+            self.key_to.extend(std::iter::repeat_n(Mat4::IDENTITY, n));
+        }
         self.last_update.extend(std::iter::repeat_n(0.0, n));
         self.drift.extend(std::iter::repeat_n(0.0, n));
         self.evaluate_full(self.chars.len() - 1);
@@ -336,6 +403,10 @@ impl Crowd {
         if d != last {
             self.locals.copy_within(last * n..(last + 1) * n, d * n);
             self.models.copy_within(last * n..(last + 1) * n, d * n);
+            if self.keyed() {
+                self.key_from.copy_within(last * n..(last + 1) * n, d * n);
+                self.key_to.copy_within(last * n..(last + 1) * n, d * n);
+            }
             self.last_update
                 .copy_within(last * n..(last + 1) * n, d * n);
             self.drift.copy_within(last * n..(last + 1) * n, d * n);
@@ -348,6 +419,10 @@ impl Crowd {
         self.chars.swap_remove(d);
         self.locals.truncate(last * n);
         self.models.truncate(last * n);
+        if self.keyed() {
+            self.key_from.truncate(last * n);
+            self.key_to.truncate(last * n);
+        }
         self.last_update.truncate(last * n);
         self.drift.truncate(last * n);
         self.slots.remove(handle(id));
@@ -472,11 +547,17 @@ impl Crowd {
     pub fn set_lod(&mut self, lod: LodMode) -> Result<(), CrowdError> {
         lod.validate()?;
         if lod != self.lod {
+            self.lod = lod;
+            let keys = if self.keyed() { self.models.len() } else { 0 };
+            for k in [&mut self.key_from, &mut self.key_to] {
+                k.clear();
+                k.resize(keys, Mat4::IDENTITY);
+                k.shrink_to(keys);
+            }
             for d in 0..self.chars.len() {
                 self.evaluate_full(d);
             }
         }
-        self.lod = lod;
         Ok(())
     }
 
@@ -615,6 +696,51 @@ impl Crowd {
         Ok(self.chars[self.dense(id)?].changed)
     }
 
+    /// Whether the crowd keeps key poses ([`LodMode::Interpolated`], [`LodMode::KeyHold`]).
+    #[inline]
+    fn keyed(&self) -> bool {
+        matches!(
+            self.lod,
+            LodMode::Interpolated { .. } | LodMode::KeyHold { .. }
+        )
+    }
+
+    /// A character's two key poses, the weight its current pose blends them with, and what the
+    /// last [`Crowd::advance`] changed in them. A host that skins on the CPU keeps one skinned
+    /// copy per key pose, recomputes only what [`KeyUpdate`] names, and blends the two copies
+    /// with `weight` — the same vertices as skinning the blended model matrices, because
+    /// linear-blend skinning is linear in the palette (a GPU host uploads both palettes and
+    /// blends in the vertex shader). Outside [`LodMode::Interpolated`] both poses are the
+    /// current model matrices (weight 1; [`KeyUpdate::Advanced`] when the pose changed).
+    pub fn key_poses(&self, id: CharacterId) -> Result<KeyPoses<'_>, CrowdError> {
+        let d = self.dense(id)?;
+        let c = &self.chars[d];
+        let span = self.span(d);
+        if !self.keyed() {
+            let m = &self.models[span];
+            return Ok(KeyPoses {
+                from: m,
+                to: m,
+                weight: 1.0,
+                update: if c.changed {
+                    KeyUpdate::Advanced
+                } else {
+                    KeyUpdate::Unchanged
+                },
+            });
+        }
+        Ok(KeyPoses {
+            from: &self.key_from[span.clone()],
+            to: &self.key_to[span],
+            weight: if matches!(self.lod, LodMode::KeyHold { .. }) {
+                1.0
+            } else {
+                keys::weight(c)
+            },
+            update: c.key_update,
+        })
+    }
+
     /// Model-space matrices of a character's bones (skeleton model space; apply
     /// [`Crowd::world_transform`] for world space). Valid until the next mutating call on the crowd.
     pub fn model_matrices(&self, id: CharacterId) -> Result<&[Mat4], CrowdError> {
@@ -632,6 +758,16 @@ impl Crowd {
         out: &mut [Mat4],
     ) -> Result<usize, CrowdError> {
         let d = self.dense(id)?;
+        self.palette_of(skin, &self.models[self.span(d)], out)
+    }
+
+    /// A skin's palette from `models` into `out` (checked against the skin's joint count).
+    fn palette_of(
+        &self,
+        skin: SkinId,
+        models: &[Mat4],
+        out: &mut [Mat4],
+    ) -> Result<usize, CrowdError> {
         let s = self.rig.skin(skin).ok_or(CrowdError::UnknownSkin(skin))?;
         if out.len() < s.joints.len() {
             return Err(CrowdError::BufferTooSmall {
@@ -639,17 +775,39 @@ impl Crowd {
                 given: out.len(),
             });
         }
-        let models = &self.models[self.span(d)];
+        Ok(palette(s, models, out))
+    }
+
+    /// Writes the skinning matrices of one of a character's key poses (`later`: the `to` pose,
+    /// else `from`; see [`Crowd::key_poses`]) into `out`, as [`Crowd::skinning_matrices`]
+    /// does for the current pose. Returns the number written.
+    pub fn key_skinning_matrices(
+        &self,
+        id: CharacterId,
+        skin: SkinId,
+        later: bool,
+        out: &mut [Mat4],
+    ) -> Result<usize, CrowdError> {
+        let k = self.key_poses(id)?;
+        self.palette_of(skin, if later { k.to } else { k.from }, out)
+    }
+}
+
+/// A skin's palette (model × inverse bind per joint) from model matrices into `out` (long
+/// enough); returns the joint count.
+fn palette(s: &crate::rig::Skin, models: &[Mat4], out: &mut [Mat4]) -> usize {
+    {
         for ((o, j), ib) in out.iter_mut().zip(&s.joints).zip(&s.inverse_bind) {
             *o = models[j.index()] * *ib;
         }
-        Ok(s.joints.len())
+        s.joints.len()
     }
 }
 
 mod budget;
 mod error;
 mod frame;
+mod keys;
 
 #[cfg(test)]
 #[path = "../crowd_tests.rs"]

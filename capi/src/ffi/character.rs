@@ -282,6 +282,39 @@ pub unsafe extern "C" fn slod_character_skinning_matrices(
     cap: usize,
     out_len: *mut usize,
 ) -> SlodResult {
+    // SAFETY: caller contract, passed on.
+    unsafe {
+        copy_palette(
+            world,
+            character,
+            skin,
+            out,
+            cap,
+            out_len,
+            |c, id, skin, m| c.skinning_matrices(id, skin, m),
+        )
+    }
+}
+
+/// Copies out a palette of skin `skin` that `write` computes for a character (the shared body
+/// of the skinning-matrix queries).
+///
+/// # Safety
+/// As `slod_character_skinning_matrices`.
+unsafe fn copy_palette(
+    world: *const SlodWorld,
+    character: SlodCharacterId,
+    skin: u32,
+    out: *mut f32,
+    cap: usize,
+    out_len: *mut usize,
+    write: impl Fn(
+        &Crowd,
+        CharacterId,
+        animlod::SkinId,
+        &mut [Mat4],
+    ) -> Result<usize, animlod::CrowdError>,
+) -> SlodResult {
     // `[f32; 16]` has the size of 16 floats and the alignment of one: `16 × cap` floats are
     // `cap` matrices.
     let out = out.cast::<[f32; 16]>();
@@ -294,12 +327,95 @@ pub unsafe extern "C" fn slod_character_skinning_matrices(
         SKINNING.with(|m| {
             let mut m = m.borrow_mut();
             m.resize(joints, Mat4::IDENTITY);
-            c.skinning_matrices(cid, skin, &mut m)
-                .map_err(crowd_error)?;
+            write(c, cid, skin, &mut m).map_err(crowd_error)?;
             // SAFETY: caller contract: `out` valid for `cap` writes, `out_len` for one.
             unsafe { copy_out_map(&m, Mat4::to_cols_array, out, cap, out_len, "out") }
         })
     })
+}
+
+/// What the last `slod_crowd_advance` changed in a character's key poses
+/// (`SLOD_LOD_MODE_INTERPOLATED`; values of `slod_character_key_state`'s `out_update`).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SlodKeyUpdate {
+    /// Neither key pose changed (only the blend weight may have).
+    Unchanged = 0,
+    /// The old later pose became the earlier one and a new later pose was evaluated: swap the
+    /// host's two copies (skinned vertices or palettes) and recompute the later one.
+    Advanced = 1,
+    /// Both key poses were evaluated anew: recompute both copies.
+    Restarted = 2,
+}
+
+/// Writes a character's key-pose blend weight (in [0, 1]; the current pose is
+/// `earlier + (later − earlier) × weight`, matrix by matrix) to `*out_weight` and what the last
+/// `slod_crowd_advance` changed in its key poses (a `SlodKeyUpdate` value) to `*out_update`.
+/// A host skins each key pose once (`slod_character_key_skinning_matrices`) and blends the two
+/// skinned copies with the weight — the same vertices as skinning the blended pose. Outside
+/// `SLOD_LOD_MODE_INTERPOLATED` both key poses are the current pose and the weight is 1.
+///
+/// Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+///
+/// # Safety
+/// `world` NULL or a live world; `out_weight` and `out_update` NULL or valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_character_key_state(
+    world: *const SlodWorld,
+    character: SlodCharacterId,
+    out_weight: *mut f32,
+    out_update: *mut u32,
+) -> SlodResult {
+    boundary(|| {
+        // SAFETY: caller contract: NULL or a live world.
+        let world = unsafe { arg(world, "world") }?;
+        let (c, cid) = character_ref(world, character)?;
+        let k = c.key_poses(cid).map_err(crowd_error)?;
+        let update = match k.update {
+            animlod::KeyUpdate::Unchanged => SlodKeyUpdate::Unchanged,
+            animlod::KeyUpdate::Advanced => SlodKeyUpdate::Advanced,
+            animlod::KeyUpdate::Restarted => SlodKeyUpdate::Restarted,
+        } as u32;
+        // SAFETY: caller contract: NULL or valid for a write.
+        unsafe { write_out(out_weight, k.weight, "out_weight") }?;
+        // SAFETY: caller contract: NULL or valid for a write.
+        unsafe { write_out(out_update, update, "out_update") }
+    })
+}
+
+/// Copies the skinning matrices of one of a character's key poses (`later` true: the later
+/// pose, else the earlier; see `slod_character_key_state`) for skin `skin` to `out`, laid out
+/// as in `slod_character_skinning_matrices`.
+///
+/// Buffer: copy-out counted in matrices (`slod_rig_skin_joint_count`). Threads: reads the world
+/// only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT` for a bad skin index,
+/// `SLOD_RESULT_BUFFER_TOO_SMALL`.
+///
+/// # Safety
+/// `world` NULL or a live world; `out` valid for `16 × cap` float writes (NULL if `cap` is 0);
+/// `out_len` valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_character_key_skinning_matrices(
+    world: *const SlodWorld,
+    character: SlodCharacterId,
+    skin: u32,
+    later: bool,
+    out: *mut f32,
+    cap: usize,
+    out_len: *mut usize,
+) -> SlodResult {
+    // SAFETY: caller contract, passed on.
+    unsafe {
+        copy_palette(
+            world,
+            character,
+            skin,
+            out,
+            cap,
+            out_len,
+            |c, id, skin, m| c.key_skinning_matrices(id, skin, later, m),
+        )
+    }
 }
 
 /// Makes a character play its clip once and stop on the last pose (`once` true), or loop it

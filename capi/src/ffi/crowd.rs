@@ -30,6 +30,12 @@ pub enum SlodLodMode {
     ErrorBound = 4,
     /// The same camera ratio `ratio` (in [0, 1]) for every character.
     Ratio = 5,
+    /// Whole key poses at intervals, model matrices blended between the last two, the next key
+    /// placed as far ahead as keeps every joint origin and tip within `max_error_px` pixels.
+    Interpolated = 6,
+    /// Whole key poses, each standing unchanged over a window centred on its time, within
+    /// `max_error_px` pixels at every joint origin and tip (no blending).
+    KeyHold = 7,
 }
 
 /// A crowd's LOD mode and its parameters. Get one from `slod_default_lod_desc`; only the
@@ -53,7 +59,9 @@ pub struct SlodLodDesc {
     pub freeze_below_px: f32,
     /// `SLOD_LOD_MODE_BUDGET`: bone interpolations per frame over the whole crowd.
     pub bone_updates_per_frame: u32,
-    /// `SLOD_LOD_MODE_ERROR_BOUND`: largest on-screen drift of a held bone, pixels (finite, > 0).
+    /// `SLOD_LOD_MODE_ERROR_BOUND`: largest on-screen drift of a held bone;
+    /// `SLOD_LOD_MODE_INTERPOLATED` and `SLOD_LOD_MODE_KEY_HOLD`: largest on-screen error of the
+    /// shown pose (pixels, finite, > 0).
     pub max_error_px: f32,
     /// `SLOD_LOD_MODE_RATIO`: the camera ratio of every character, in [0, 1].
     pub ratio: f32,
@@ -142,6 +150,8 @@ fn lod_mode_value(mode: LodMode) -> SlodLodMode {
         LodMode::Budget { .. } => SlodLodMode::Budget,
         LodMode::ErrorBound { .. } => SlodLodMode::ErrorBound,
         LodMode::Ratio(_) => SlodLodMode::Ratio,
+        LodMode::Interpolated { .. } => SlodLodMode::Interpolated,
+        LodMode::KeyHold { .. } => SlodLodMode::KeyHold,
     }
 }
 
@@ -196,15 +206,18 @@ impl SlodLodDesc {
             3 => LodMode::Budget {
                 bone_updates_per_frame: self.bone_updates_per_frame,
             },
-            4 => {
+            4 | 6 | 7 => {
                 in_range(
                     self.max_error_px,
                     f32::MIN_POSITIVE,
                     f32::MAX,
                     "lod.max_error_px",
                 )?;
-                LodMode::ErrorBound {
-                    max_error_px: self.max_error_px,
+                let max_error_px = self.max_error_px;
+                match self.mode {
+                    4 => LodMode::ErrorBound { max_error_px },
+                    6 => LodMode::Interpolated { max_error_px },
+                    _ => LodMode::KeyHold { max_error_px },
                 }
             }
             5 => {

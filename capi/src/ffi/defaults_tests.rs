@@ -45,6 +45,8 @@ fn lod_desc_presets_are_the_rust_defaults() {
         (SlodLodMode::Budget, LodMode::DEFAULT_BUDGET),
         (SlodLodMode::ErrorBound, LodMode::DEFAULT_ERROR_BOUND),
         (SlodLodMode::Ratio, LodMode::DEFAULT_RATIO),
+        (SlodLodMode::Interpolated, LodMode::DEFAULT_INTERPOLATED),
+        (SlodLodMode::KeyHold, LodMode::DEFAULT_KEY_HOLD),
     ] {
         let d = SlodLodDesc {
             mode: value as u32,
