@@ -992,11 +992,13 @@ fn random_call(rng: &mut Rng, m: &mut Model, other: &Model, assets: &Assets, ste
                 return;
             };
             let mut d = slod_default_crowd_desc();
-            d.lod.mode = rng.below(6) as u32;
+            // Every mode there is (the last one is `KeyHold`).
+            let modes = SlodLodMode::KeyHold as u64 + 1;
+            d.lod.mode = rng.below(modes) as u32;
             let bad = if arg_fault {
                 match rng.below(4) {
                     0 => {
-                        d.lod.mode = 6 + rng.below(100) as u32;
+                        d.lod.mode = (modes + rng.below(100)) as u32;
                         "lod.mode"
                     }
                     1 => {

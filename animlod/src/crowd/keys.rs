@@ -293,8 +293,11 @@ fn advance_keyed_character(
     blend(&clip.moving, from, to, w, models);
     c.changed = true;
     st.key_poses = evaluations;
-    st.bones_interpolated = evaluations * animated;
-    st.bones_held = animated.saturating_sub(st.bones_interpolated);
+    // A bone counts once as interpolated when any key pose was evaluated this frame (a restart
+    // evaluates two; `key_poses` says how many), so interpolated, held and constant bones still
+    // partition the character's bones.
+    st.bones_interpolated = if evaluations > 0 { animated } else { 0 };
+    st.bones_held = animated - st.bones_interpolated;
     st.bones_concatenated = evaluations * clip.moving.len() as u64;
     st.bones_blended = clip.moving.len() as u64;
     if let Some(t0) = clock {

@@ -16,7 +16,6 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use rayon::prelude::*;
 use salience::View;
 
 use super::budget::{BudgetShare, BudgetTarget, FrameClock, WorldBudget, WorldError};
@@ -417,7 +416,35 @@ impl FrameBudgeter {
         if self.serial() || jobs.len() < 2 {
             jobs.iter_mut().for_each(run);
         } else {
-            self.install(|| jobs.par_iter_mut().for_each(run));
+            // Largest first, each taken by whichever thread is free (longest-processing-time
+            // scheduling): split in halves, as a parallel iterator over the slot order does,
+            // two threads waited on each other's last large cloth.
+            let mut order: Vec<&mut ClothJob<'a>> = jobs.iter_mut().collect();
+            order.sort_by_key(|j| {
+                let work = j.cloth.link_count() + j.cloth.node_count();
+                (std::cmp::Reverse(work * j.steps as usize), j.key)
+            });
+            let queue: Vec<std::sync::Mutex<&mut ClothJob<'a>>> =
+                order.into_iter().map(std::sync::Mutex::new).collect();
+            let next = std::sync::atomic::AtomicUsize::new(0);
+            let threads = self.threads().max(1);
+            let work = || {
+                loop {
+                    let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    let Some(job) = queue.get(i) else { break };
+                    // Each job is taken once, so its lock is never contended.
+                    let mut job = job.lock().unwrap_or_else(|e| e.into_inner());
+                    run(&mut job);
+                }
+            };
+            self.install(|| {
+                rayon::scope(|s| {
+                    for _ in 1..threads {
+                        s.spawn(|_| work());
+                    }
+                    work();
+                });
+            });
         }
         for job in jobs {
             let work = match job.outcome {
