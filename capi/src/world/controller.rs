@@ -35,16 +35,6 @@ pub struct FrameCost {
     pub ms: f64,
 }
 
-/// A target in ms converted to cost units at the window's measured ms per unit (targets in
-/// units pass through).
-fn target_units(target: f64, in_ms: bool, window_ms: f64, window_units: f64) -> f64 {
-    if in_ms && window_ms > 0.0 {
-        target * window_units / window_ms
-    } else {
-        target
-    }
-}
-
 /// Holds a target frame cost by moving the world's error bound.
 #[derive(Clone, Debug)]
 pub struct ErrorBoundController {
@@ -52,6 +42,8 @@ pub struct ErrorBoundController {
     window_fluctuating: f64,
     window_units: f64,
     window_ms: f64,
+    /// Milliseconds per cost unit of each frame of the window.
+    window_rates: Vec<f64>,
     window_frames: u32,
     updates: u64,
     /// The bound and the estimate of the last window, for the elasticity.
@@ -74,6 +66,7 @@ impl ErrorBoundController {
             window_fluctuating: 0.0,
             window_units: 0.0,
             window_ms: 0.0,
+            window_rates: Vec::new(),
             window_frames: 0,
             updates: 0,
             previous: None,
@@ -99,7 +92,7 @@ impl ErrorBoundController {
 
     /// Feeds one frame; every `update_frames` frames estimates the cost the current bound
     /// leads to (the newest committed cost plus the window's mean fluctuating cost, converted
-    /// to milliseconds at the window's measured ms per unit when `in_ms`) and moves the bound
+    /// to milliseconds at the window's median ms per unit when `in_ms`) and moves the bound
     /// towards `target`. Returns whether it moved. Frames with a non-finite or negative figure
     /// are ignored.
     pub fn observe(
@@ -121,29 +114,46 @@ impl ErrorBoundController {
         self.window_fluctuating += cost.fluctuating_units;
         self.window_units += cost.units;
         self.window_ms += cost.ms;
+        if cost.units > 0.0 {
+            self.window_rates.push(cost.ms / cost.units);
+        }
         self.window_frames += 1;
         if self.window_frames < settings.update_frames {
             return false;
         }
         let frames = self.window_frames as f64;
         let mut estimate = cost.committed_units + self.window_fluctuating / frames;
+        // Milliseconds per unit: the window's median frame. A frame the machine stretched
+        // (another process on a core, a page fault) takes twice as long for the same work and
+        // says nothing about what the work costs; with the window's mean the bound followed
+        // those frames and the typical frame ran 10% under the target.
+        let ms_per_unit = if self.window_rates.is_empty() {
+            None
+        } else {
+            self.window_rates.sort_by(f64::total_cmp);
+            Some(self.window_rates[self.window_rates.len() / 2])
+        };
         // The projection can fall short (errors grow as a cold cloth starts to move, so the cut
         // keeps refining past what an evaluation projected): a window that already spent more
         // than the target says so, and wins.
         let spent = self.window_units / frames;
-        if spent > target_units(target, in_ms, self.window_ms, self.window_units) {
+        let target_units = match (in_ms, ms_per_unit) {
+            (true, Some(r)) => target / r,
+            _ => target,
+        };
+        if spent > target_units {
             estimate = estimate.max(spent);
         }
         if in_ms {
-            if self.window_units <= 0.0 {
-                estimate = self.window_ms / frames;
-            } else {
-                estimate *= self.window_ms / self.window_units;
-            }
+            estimate = match ms_per_unit {
+                Some(r) => estimate * r,
+                None => self.window_ms / frames,
+            };
         }
         self.window_fluctuating = 0.0;
         self.window_units = 0.0;
         self.window_ms = 0.0;
+        self.window_rates.clear();
         self.window_frames = 0;
         if estimate <= 0.0 || target <= 0.0 {
             return false;
