@@ -200,6 +200,20 @@ pub fn thesis_rig(rig: &Rig) -> Result<Rig, BuildError> {
     animlod::build::scaled(&grown, THESIS_HEIGHT / height)
 }
 
+/// The clips of `rig` that last longer than an instant (clip 0 if none does): what a crowd of
+/// it plays, spread over characters.
+pub fn playable_clips(rig: &Rig) -> Vec<ClipId> {
+    let clips: Vec<ClipId> = (0..rig.clips().len())
+        .map(ClipId::new)
+        .filter(|&c| rig.clip(c).is_some_and(|c| c.duration() > 0.0))
+        .collect();
+    if clips.is_empty() {
+        vec![ClipId::new(0)]
+    } else {
+        clips
+    }
+}
+
 /// Height of a rig: the vertical extent of its joints in the rest pose (model units).
 pub fn rig_height(rig: &Rig) -> Result<f32, BuildError> {
     let sk = rig.skeleton();

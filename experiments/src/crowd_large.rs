@@ -19,8 +19,8 @@ use rayon::prelude::*;
 use salience::View;
 
 use animlod::{
-    BuildError, CharacterId, ClipId, Crowd, CrowdError, ErrorSum, KeyUpdate, LodMode, Rig,
-    SkinBlendJob, SkinId, SkinningJob,
+    BuildError, CharacterId, Crowd, CrowdError, ErrorSum, KeyUpdate, LodMode, Rig, SkinBlendJob,
+    SkinId, SkinningJob,
 };
 
 use crate::crowd::rig_height;
@@ -173,15 +173,7 @@ impl Sharded {
     /// Every character of `setup` (positions, clips, phases from its seed) in `SHARDS` crowds.
     fn new(rig: &Arc<Rig>, setup: &LargeSetup, lod: LodMode) -> Result<Sharded, CrowdError> {
         let view = setup.view()?;
-        let clips: Vec<ClipId> = (0..rig.clips().len())
-            .map(ClipId::new)
-            .filter(|&c| rig.clip(c).is_some_and(|c| c.duration() > 0.0))
-            .collect();
-        let clips = if clips.is_empty() {
-            vec![ClipId::new(0)]
-        } else {
-            clips
-        };
+        let clips = crate::crowd::playable_clips(rig);
         let mut shards: Vec<Crowd> = (0..SHARDS).map(|_| Crowd::new(rig.clone())).collect();
         let mut ids = vec![Vec::new(); SHARDS];
         let mut r = Rng::new(setup.seed);

@@ -40,7 +40,7 @@ use slod::world::{BudgetTarget, ObjectKey, World, WorldBudget, WorldError};
 use softbody::{ParticleId, TreeCutSettings, WindField};
 use treecut::GridSpec;
 
-use animlod::{ClipId, Crowd, CrowdError, ErrorSum, LodMode, Rig};
+use animlod::{Crowd, CrowdError, ErrorSum, LodMode, Rig};
 
 use crate::rng::Rng;
 use crate::screen::{ScreenError, ScreenMeter};
@@ -438,15 +438,7 @@ fn build(
 /// The crowd: GDBot playing every clip at random phases, 3–150 m along the street, 14 m wide.
 fn street_crowd(config: &WorldConfig, rig: &Arc<Rig>, how: Build) -> Result<Crowd, CrowdError> {
     let mut crowd = Crowd::new(rig.clone());
-    let clips: Vec<ClipId> = (0..rig.clips().len())
-        .map(ClipId::new)
-        .filter(|&c| rig.clip(c).is_some_and(|c| c.duration() > 0.0))
-        .collect();
-    let clips = if clips.is_empty() {
-        vec![ClipId::new(0)]
-    } else {
-        clips
-    };
+    let clips = crate::crowd::playable_clips(rig);
     let mut r = Rng::new(29);
     for i in 0..config.characters {
         let d = r.range(3.0, 150.0);
