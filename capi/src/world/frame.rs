@@ -299,9 +299,82 @@ impl FrameBudgeter {
         view: &View,
         crowds: impl IntoIterator<Item = (ObjectKey, &'a mut Crowd)>,
     ) {
-        let t = Instant::now();
+        let mut jobs = self.prepare_crowds(frame, crowds);
+        let ms = self.install(|| run_crowds(&mut jobs, dt, view));
+        frame.stats.crowd_ms += ms;
+        self.account_crowds(frame, jobs);
+    }
+
+    /// Steps every cloth through `dt` seconds of simulated time (as many of its own solver
+    /// steps as fit, at most `max_cloth_steps`), seen through `view`, the cloths in parallel.
+    /// Each cloth's detail follows its share first. A cloth that fails is reported by
+    /// [`FrameBudgeter::end_frame`]; the others still step.
+    pub fn step_cloths<'a>(
+        &mut self,
+        frame: &mut Frame,
+        dt: f32,
+        view: &View,
+        cloths: impl IntoIterator<Item = (ObjectKey, &'a mut AdaptiveCloth)>,
+    ) {
+        let mut jobs = self.prepare_cloths(frame, dt, cloths);
+        let (model, threads) = (self.settings.cost.cloth, self.cloth_threads());
+        let ms = self.install(|| run_cloths(&mut jobs, view, model, threads));
+        frame.stats.cloth_ms += ms;
+        self.account_cloths(frame, jobs);
+    }
+
+    /// [`FrameBudgeter::advance_crowds`] and [`FrameBudgeter::step_cloths`] at once, for worlds
+    /// where no cloth depends on a crowd's new pose (the Rust [`super::World`]): the crowds and
+    /// the cloths are one pool of work for the threads, so neither phase's tail leaves a thread
+    /// idle. Results are those of the two calls one after the other (the objects are
+    /// independent), so the cost-unit budget stays deterministic.
+    pub fn advance_and_step<'a, 'b>(
+        &mut self,
+        frame: &mut Frame,
+        dt: f32,
+        view: &View,
+        crowds: impl IntoIterator<Item = (ObjectKey, &'a mut Crowd)>,
+        cloths: impl IntoIterator<Item = (ObjectKey, &'b mut AdaptiveCloth)>,
+    ) {
+        let mut crowd_jobs = self.prepare_crowds(frame, crowds);
+        let mut cloth_jobs = self.prepare_cloths(frame, dt, cloths);
+        let (model, threads) = (self.settings.cost.cloth, self.cloth_threads());
+        let (crowd_ms, cloth_ms) = if self.serial() {
+            (
+                run_crowds(&mut crowd_jobs, dt, view),
+                run_cloths(&mut cloth_jobs, view, model, threads),
+            )
+        } else {
+            self.install(|| {
+                rayon::join(
+                    || run_crowds(&mut crowd_jobs, dt, view),
+                    || run_cloths(&mut cloth_jobs, view, model, threads),
+                )
+            })
+        };
+        frame.stats.crowd_ms += crowd_ms;
+        frame.stats.cloth_ms += cloth_ms;
+        self.account_crowds(frame, crowd_jobs);
+        self.account_cloths(frame, cloth_jobs);
+    }
+
+    /// Threads the cloth phase shares its cloths out to (1 when serial).
+    fn cloth_threads(&self) -> usize {
+        if self.serial() {
+            1
+        } else {
+            self.threads().max(1)
+        }
+    }
+
+    /// Each crowd's share applied (its LOD mode or bound), ready to advance.
+    fn prepare_crowds<'a>(
+        &mut self,
+        frame: &mut Frame,
+        crowds: impl IntoIterator<Item = (ObjectKey, &'a mut Crowd)>,
+    ) -> Vec<CrowdJob<'a>> {
         let parallel = !self.serial();
-        let cost = self.settings.cost;
+        let mut jobs = Vec::new();
         for (key, crowd) in crowds {
             let state = self.objects.entry(key).or_default();
             state.seen = self.frames;
@@ -322,7 +395,22 @@ impl FrameBudgeter {
                 frame.fail(e);
             }
             crowd.set_parallel(parallel);
-            match self.install(|| crowd.advance(dt, view)) {
+            jobs.push(CrowdJob {
+                key,
+                crowd,
+                bound: bound.unwrap_or(0.0),
+                share,
+                outcome: Ok(animlod::FrameStats::default()),
+            });
+        }
+        jobs
+    }
+
+    /// Counts what the crowds did into the frame.
+    fn account_crowds(&self, frame: &mut Frame, jobs: Vec<CrowdJob<'_>>) {
+        let cost = self.settings.cost;
+        for job in jobs {
+            match job.outcome {
                 Ok(s) => {
                     let units = s.bones_interpolated as f64 * cost.bone_sampled as f64
                         + s.bones_concatenated as f64 * cost.bone_concatenated as f64
@@ -334,32 +422,27 @@ impl FrameBudgeter {
                     frame.stats.bones_interpolated += s.bones_interpolated;
                     frame.stats.bones_animated += animated;
                     frame.objects.push(ObjectFrame {
-                        key,
+                        key: job.key,
                         units,
                         detail: s.bones_interpolated,
                         full_detail: animated,
-                        bound_px: bound.unwrap_or(0.0),
-                        share,
+                        bound_px: job.bound,
+                        share: job.share,
                     });
                 }
                 Err(e) => frame.fail(e),
             }
         }
-        frame.stats.crowd_ms += t.elapsed().as_secs_f64() * 1e3;
     }
 
-    /// Steps every cloth through `dt` seconds of simulated time (as many of its own solver
-    /// steps as fit, at most `max_cloth_steps`), seen through `view`, the cloths in parallel.
-    /// Each cloth's detail follows its share first. A cloth that fails is reported by
-    /// [`FrameBudgeter::end_frame`]; the others still step.
-    pub fn step_cloths<'a>(
+    /// Each cloth's share applied, its steps for `dt` counted, evaluation phases balanced and
+    /// operations capped: the cloth jobs of the frame.
+    fn prepare_cloths<'a>(
         &mut self,
         frame: &mut Frame,
         dt: f32,
-        view: &View,
         cloths: impl IntoIterator<Item = (ObjectKey, &'a mut AdaptiveCloth)>,
-    ) {
-        let t = Instant::now();
+    ) -> Vec<ClothJob<'a>> {
         let mut jobs: Vec<ClothJob<'a>> = Vec::new();
         for (key, cloth) in cloths {
             let frames = self.frames;
@@ -395,57 +478,11 @@ impl FrameBudgeter {
         if let Err(e) = self.cap_transitions(&mut jobs) {
             frame.fail(e);
         }
-        let model = self.settings.cost.cloth;
-        let run = |job: &mut ClothJob<'a>| {
-            let mut work = StepCost::default();
-            job.outcome = (|| {
-                for _ in 0..job.steps {
-                    job.cloth.step(view)?;
-                    let w = job.cloth.stats().last_work;
-                    let all = model.seconds(&w) * 1e9;
-                    let evaluation = model.evaluation_seconds(&w) * 1e9;
-                    let transitions = model.transition * w.transitions as f64 * 1e9;
-                    work.steps += 1;
-                    work.evaluations += (w.evaluated_nodes > 0) as u64;
-                    work.units += all;
-                    work.settled_units += all - evaluation - transitions;
-                }
-                Ok(work)
-            })();
-        };
-        if self.serial() || jobs.len() < 2 {
-            jobs.iter_mut().for_each(run);
-        } else {
-            // Largest first, each taken by whichever thread is free (longest-processing-time
-            // scheduling): split in halves, as a parallel iterator over the slot order does,
-            // two threads waited on each other's last large cloth.
-            let mut order: Vec<&mut ClothJob<'a>> = jobs.iter_mut().collect();
-            order.sort_by_key(|j| {
-                let work = j.cloth.link_count() + j.cloth.node_count();
-                (std::cmp::Reverse(work * j.steps as usize), j.key)
-            });
-            let queue: Vec<std::sync::Mutex<&mut ClothJob<'a>>> =
-                order.into_iter().map(std::sync::Mutex::new).collect();
-            let next = std::sync::atomic::AtomicUsize::new(0);
-            let threads = self.threads().max(1);
-            let work = || {
-                loop {
-                    let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    let Some(job) = queue.get(i) else { break };
-                    // Each job is taken once, so its lock is never contended.
-                    let mut job = job.lock().unwrap_or_else(|e| e.into_inner());
-                    run(&mut job);
-                }
-            };
-            self.install(|| {
-                rayon::scope(|s| {
-                    for _ in 1..threads {
-                        s.spawn(|_| work());
-                    }
-                    work();
-                });
-            });
-        }
+        jobs
+    }
+
+    /// Counts what the cloths did into the frame.
+    fn account_cloths(&self, frame: &mut Frame, jobs: Vec<ClothJob<'_>>) {
         for job in jobs {
             let work = match job.outcome {
                 Ok(w) => w,
@@ -484,7 +521,6 @@ impl FrameBudgeter {
                 share: job.share,
             });
         }
-        frame.stats.cloth_ms += t.elapsed().as_secs_f64() * 1e3;
     }
 
     /// Ends the frame: measures it, feeds the controller, forgets objects that were not stepped,
@@ -535,6 +571,82 @@ impl FrameBudgeter {
             None => Ok(frame.stats),
         }
     }
+}
+
+struct CrowdJob<'a> {
+    key: ObjectKey,
+    crowd: &'a mut Crowd,
+    bound: f32,
+    share: BudgetShare,
+    outcome: Result<animlod::FrameStats, animlod::CrowdError>,
+}
+
+/// Advances each crowd (each split across the current pool's threads if it allows); returns
+/// the wall time spent, ms.
+fn run_crowds(jobs: &mut [CrowdJob<'_>], dt: f32, view: &View) -> f64 {
+    let t = Instant::now();
+    for job in jobs.iter_mut() {
+        job.outcome = job.crowd.advance(dt, view);
+    }
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+/// Steps each cloth job on `threads` threads of the current pool, largest first, each taken
+/// by whichever thread is free (longest-processing-time scheduling: split in halves, as a
+/// parallel iterator over the slot order does, two threads waited on each other's last large
+/// cloth); counts each step's work in `model`'s units. Returns the wall time spent, ms.
+fn run_cloths(
+    jobs: &mut [ClothJob<'_>],
+    view: &View,
+    model: crate::cloth::CostModel,
+    threads: usize,
+) -> f64 {
+    let t = Instant::now();
+    let run = |job: &mut ClothJob<'_>| {
+        let mut work = StepCost::default();
+        job.outcome = (|| {
+            for _ in 0..job.steps {
+                job.cloth.step(view)?;
+                let w = job.cloth.stats().last_work;
+                let all = model.seconds(&w) * 1e9;
+                let evaluation = model.evaluation_seconds(&w) * 1e9;
+                let transitions = model.transition * w.transitions as f64 * 1e9;
+                work.steps += 1;
+                work.evaluations += (w.evaluated_nodes > 0) as u64;
+                work.units += all;
+                work.settled_units += all - evaluation - transitions;
+            }
+            Ok(work)
+        })();
+    };
+    if threads < 2 || jobs.len() < 2 {
+        jobs.iter_mut().for_each(run);
+    } else {
+        let mut order: Vec<&mut ClothJob<'_>> = jobs.iter_mut().collect();
+        order.sort_by_key(|j| {
+            let work = j.cloth.link_count() + j.cloth.node_count();
+            (std::cmp::Reverse(work * j.steps as usize), j.key)
+        });
+        let queue: Vec<std::sync::Mutex<&mut ClothJob<'_>>> =
+            order.into_iter().map(std::sync::Mutex::new).collect();
+        let next = std::sync::atomic::AtomicUsize::new(0);
+        let work = || {
+            loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some(job) = queue.get(i) else { break };
+                // Each job is taken once, so its lock is never contended.
+                let mut job = job.lock().unwrap_or_else(|e| e.into_inner());
+                run(&mut job);
+            }
+        };
+        rayon::scope(|s| {
+            for _ in 1..threads {
+                s.spawn(|_| work());
+            }
+            work();
+        });
+    }
+    t.elapsed().as_secs_f64() * 1e3
 }
 
 struct ClothJob<'a> {

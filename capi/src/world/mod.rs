@@ -160,8 +160,8 @@ impl World {
     }
 
     /// Advances every crowd by `dt` seconds and every cloth through `dt` seconds of its own
-    /// solver steps, seen through `view`, under the budget: crowds first (split across the
-    /// threads), then the cloths in parallel. An object that fails is reported as the error
+    /// solver steps, seen through `view`, under the budget: crowds (each split across the
+    /// threads) and cloths (in parallel, largest first) share the threads as one pool of work. An object that fails is reported as the error
     /// after every other object has advanced.
     pub fn step(&mut self, dt: f32, view: &View) -> Result<WorldStepStats, WorldError> {
         if !(dt.is_finite() && (0.0..=3600.0).contains(&dt)) {
@@ -171,18 +171,14 @@ impl World {
             });
         }
         let mut frame = self.budget.begin_frame();
-        self.budget.advance_crowds(
+        // No cloth of a Rust world hangs on a crowd's pose, so both run as one pool of work.
+        self.budget.advance_and_step(
             &mut frame,
             dt,
             view,
             self.crowds
                 .iter_mut()
                 .map(|(h, c)| (CrowdKey(h).object(), c)),
-        );
-        self.budget.step_cloths(
-            &mut frame,
-            dt,
-            view,
             self.cloths
                 .iter_mut()
                 .map(|(h, c)| (ClothKey(h).object(), c)),
