@@ -161,7 +161,7 @@ pub(crate) fn run(plan: &WorldPlan, progress: Progress) -> Result<WorldOutcome, 
     let c = &plan.config;
     let bar = progress.bar((c.frames + c.cost_frames) as u64, "world");
     let report = world::run_world(c, &mut |name, done, _| {
-        // The lockstep run first, then the cost-unit variant.
+        // The budgeted run and its reference first, then the cost-unit variant.
         let before = if name == "cost units" { c.frames } else { 0 };
         bar.set_position((before + done) as u64);
         bar.set_message(name.to_string());

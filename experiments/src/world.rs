@@ -10,7 +10,8 @@
 //! "maximal computation time" as a budget (`simulation-lod-treecut-softbody-bswdf.txt`,
 //! section 5).
 //!
-//! [`run_world`] steps three worlds in lockstep through the same camera:
+//! [`run_world`] steps three worlds through the same camera — the budgeted one alone first
+//! (timed as a host runs it, its surfaces recorded), then the other two together:
 //! - the budgeted world: cloths starting at a coarse level, the crowd under the world's shared
 //!   error bound, [`BudgetTarget::Milliseconds`] measured on the wall clock;
 //! - the full-detail reference: the same scene at the finest level without feedback, the crowd
@@ -56,7 +57,7 @@ pub const SETTLE_TAIL: usize = 60;
 /// What to run.
 #[derive(Clone, Debug, PartialEq)]
 pub struct WorldConfig {
-    /// Frames of the budgeted run (and of the reference in lockstep).
+    /// Frames of the budgeted run (and of the reference over the same frames).
     pub frames: u32,
     /// Characters of the crowd.
     pub characters: usize,
