@@ -8,10 +8,11 @@
 //! actor's benefit) and Unreal's animation budget allocator (a millisecond budget for all
 //! skeletal meshes, with per-component overrides).
 //!
-//! The budgeter does not own the objects: a frame is `begin_frame`, `advance_crowds`,
-//! `step_cloths`, `end_frame`, each given the objects by key, so [`super::World`] (Rust) and
-//! the C world (its own arenas, and bone-attached cloths that must see their character's new
-//! pose between the crowd and the cloth phase) share it.
+//! The budgeter does not own the objects: a frame is `begin_frame`, then `advance_crowds` and
+//! `step_cloths` (or both at once, `advance_and_step`), then `end_frame`, each given the objects
+//! by key, so [`super::World`] (Rust) and the C world (its own arenas, and bone-attached cloths
+//! that must see their character's new pose between the crowd and the cloth phase) share it.
+//! What runs on the threads is in [`super::jobs`].
 
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -20,7 +21,10 @@ use salience::View;
 
 use super::budget::{BudgetShare, BudgetTarget, FrameClock, WorldBudget, WorldError};
 use super::controller::{ErrorBoundController, FrameCost};
-use crate::cloth::{AdaptiveCloth, ClothBudget, FeedbackSettings};
+use super::jobs::{
+    ClothJob, CrowdJob, StepCost, apply_cloth_share, full_ratio, run_cloths, run_crowds,
+};
+use crate::cloth::{AdaptiveCloth, FeedbackSettings};
 use animlod::{Crowd, LodMode};
 
 /// The kind of object a key names.
@@ -573,127 +577,6 @@ impl FrameBudgeter {
     }
 }
 
-struct CrowdJob<'a> {
-    key: ObjectKey,
-    crowd: &'a mut Crowd,
-    bound: f32,
-    share: BudgetShare,
-    outcome: Result<animlod::FrameStats, animlod::CrowdError>,
-}
-
-/// Advances each crowd (each split across the current pool's threads if it allows); returns
-/// the wall time spent, ms.
-fn run_crowds(jobs: &mut [CrowdJob<'_>], dt: f32, view: &View) -> f64 {
-    let t = Instant::now();
-    for job in jobs.iter_mut() {
-        job.outcome = job.crowd.advance(dt, view);
-    }
-    t.elapsed().as_secs_f64() * 1e3
-}
-
-/// Steps each cloth job on `threads` threads of the current pool, largest first, each taken
-/// by whichever thread is free (longest-processing-time scheduling: split in halves, as a
-/// parallel iterator over the slot order does, two threads waited on each other's last large
-/// cloth); counts each step's work in `model`'s units. Returns the wall time spent, ms.
-fn run_cloths(
-    jobs: &mut [ClothJob<'_>],
-    view: &View,
-    model: crate::cloth::CostModel,
-    threads: usize,
-) -> f64 {
-    let t = Instant::now();
-    let run = |job: &mut ClothJob<'_>| {
-        let mut work = StepCost::default();
-        job.outcome = (|| {
-            for _ in 0..job.steps {
-                job.cloth.step(view)?;
-                let w = job.cloth.stats().last_work;
-                let all = model.seconds(&w) * 1e9;
-                let evaluation = model.evaluation_seconds(&w) * 1e9;
-                let transitions = model.transition * w.transitions as f64 * 1e9;
-                work.steps += 1;
-                work.evaluations += (w.evaluated_nodes > 0) as u64;
-                work.units += all;
-                work.settled_units += all - evaluation - transitions;
-            }
-            Ok(work)
-        })();
-    };
-    if threads < 2 || jobs.len() < 2 {
-        jobs.iter_mut().for_each(run);
-    } else {
-        let mut order: Vec<&mut ClothJob<'_>> = jobs.iter_mut().collect();
-        order.sort_by_key(|j| {
-            let work = j.cloth.link_count() + j.cloth.node_count();
-            (std::cmp::Reverse(work * j.steps as usize), j.key)
-        });
-        let queue: Vec<std::sync::Mutex<&mut ClothJob<'_>>> =
-            order.into_iter().map(std::sync::Mutex::new).collect();
-        let next = std::sync::atomic::AtomicUsize::new(0);
-        let work = || {
-            loop {
-                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                let Some(job) = queue.get(i) else { break };
-                // Each job is taken once, so its lock is never contended.
-                let mut job = job.lock().unwrap_or_else(|e| e.into_inner());
-                run(&mut job);
-            }
-        };
-        rayon::scope(|s| {
-            for _ in 1..threads {
-                s.spawn(|_| work());
-            }
-            work();
-        });
-    }
-    t.elapsed().as_secs_f64() * 1e3
-}
-
-struct ClothJob<'a> {
-    key: ObjectKey,
-    cloth: &'a mut AdaptiveCloth,
-    steps: u32,
-    bound: f32,
-    share: BudgetShare,
-    outcome: Result<StepCost, crate::cloth::ClothError>,
-}
-
-/// What a cloth's steps of one frame cost, in cost units.
-#[derive(Clone, Copy, Debug, Default)]
-struct StepCost {
-    steps: u32,
-    evaluations: u64,
-    /// Everything.
-    units: f64,
-    /// Without the evaluations and the transitions in flight.
-    settled_units: f64,
-}
-
-/// Puts a cloth's feedback budget where its share says: the world's bound (in place, keeping
-/// the loop's state), the full cut, or untouched.
-fn apply_cloth_share(
-    cloth: &mut AdaptiveCloth,
-    share: BudgetShare,
-    bound: Option<f32>,
-) -> Result<(), WorldError> {
-    let current = cloth.feedback().map(|f| f.budget);
-    match (share, bound) {
-        (BudgetShare::FullDetail, _) if current != Some(ClothBudget::Compression(1.0)) => {
-            let base = cloth.feedback().copied().unwrap_or_default();
-            cloth.set_feedback(Some(FeedbackSettings {
-                budget: ClothBudget::Compression(1.0),
-                ..base
-            }))?;
-        }
-        (BudgetShare::FullDetail, _) => {}
-        (_, Some(b)) if current != Some(ClothBudget::MaxErrorPx(b)) => {
-            cloth.set_error_bound_px(b)?;
-        }
-        _ => {}
-    }
-    Ok(())
-}
-
 impl FrameBudgeter {
     /// The frame target in cost units (a millisecond target converted at the measured ms per
     /// unit, or through the modelled clock), or `None` without a budget or a measurement yet.
@@ -779,11 +662,6 @@ impl FrameBudgeter {
             }
         }
     }
-}
-
-/// The most a cloth's step can grow by (its finest node count over its node count now).
-fn full_ratio(c: &AdaptiveCloth) -> f64 {
-    c.hierarchy().vertex_count() as f64 / c.node_count().max(1) as f64
 }
 
 fn make_pool(threads: usize) -> Result<Option<rayon::ThreadPool>, WorldError> {

@@ -18,6 +18,7 @@
 pub mod budget;
 pub mod controller;
 pub mod frame;
+mod jobs;
 #[cfg(test)]
 mod tests;
 
