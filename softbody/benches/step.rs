@@ -11,7 +11,8 @@
 //! link-iteration. Quick run:
 //! `cargo bench -p softbody --bench step -- --warm-up-time 1 --measurement-time 2`.
 //!
-//! `threads/…`: the same cloths (and `bullet257`) on a rayon pool of 1 and of 2 threads with the
+//! `threads/…`: the same cloths (and `bullet257`; `bullet129 32x1` and `bullet257 32x1` at the
+//! default 32 substeps × 1 iteration) on a rayon pool of 1 and of 2 threads with the
 //! default `SolverSettings::parallel_min_links`, in *wall* time (CPU time would count one
 //! thread only); the throughput line is wall nanoseconds per link-iteration. Run
 //! `cargo bench -p softbody --bench step -- threads --warm-up-time 1 --measurement-time 3` and
@@ -101,13 +102,31 @@ fn bench(c: &mut Criterion<ThreadTime>) {
     per_path(c, &name, &body);
 }
 
-/// The bodies of the thread comparison: Bullet cloths at 65², 129² and 257², and the paper's net.
+/// The default solver settings (32 substeps × 1 iteration) without damping, as [`settings`].
+fn defaults() -> SolverSettings {
+    SolverSettings {
+        dt: 1.0 / 60.0,
+        gravity: Vec3::new(0.0, -9.81, 0.0),
+        damping: 0.0,
+        ..SolverSettings::default()
+    }
+}
+
+/// The bodies of the thread comparison: Bullet cloths at 65², 129² and 257² (1 substep × 20
+/// iterations), at 129² and 257² also with the default 32 substeps × 1 iteration
+/// (`bullet129 32x1 …`), and the paper's net.
 fn thread_bodies() -> Vec<(String, SoftBody)> {
     let mut bodies = Vec::new();
     for n in [65u32, 129, 257] {
         let g = grid(n, n);
         let body = pinned(g.build_bullet(threaded()).unwrap(), &g);
         bodies.push((format!("bullet{n} ({} links)", body.link_count()), body));
+    }
+    for n in [129u32, 257] {
+        let g = grid(n, n);
+        let body = pinned(g.build_bullet(defaults()).unwrap(), &g);
+        let name = format!("bullet{n} 32x1 ({} links)", body.link_count());
+        bodies.push((name, body));
     }
     let mut g = grid(79, 54);
     g.shear = false;

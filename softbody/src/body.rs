@@ -15,10 +15,12 @@ use crate::error::SoftBodyError;
 use crate::group::{GroupId, GroupStore, GroupTarget};
 use crate::ids::{LinkId, ParticleId};
 use crate::kernel::KernelPath;
+use crate::kernel::{Particles, SharedParticles};
 use crate::links::{LinkInfo, LinkStore};
 use crate::settings::SolverSettings;
+use crate::team;
 use glam::{Vec3, Vec3A, Vec4};
-use rayon::prelude::*;
+use std::cell::Cell;
 
 /// A kinematic anchor: a pinned particle the host moves; it travels linearly to `target`
 /// over the substeps of the next step (so it carries the matching velocity).
@@ -28,6 +30,22 @@ struct Anchor {
     start: Vec3A,
     target: Vec3A,
 }
+
+impl Anchor {
+    /// Where the anchor puts its particle at the end of substep `sub` of `substeps`.
+    fn position(&self, sub: u32, substeps: u32) -> Vec3A {
+        if sub + 1 == substeps {
+            self.target
+        } else {
+            self.start
+                .lerp(self.target, (sub + 1) as f32 / substeps as f32)
+        }
+    }
+}
+
+/// Particle ranges a per-particle phase of a threaded step is cut into per thread (as
+/// `links::RUNS_PER_THREAD`: a late thread's share is taken over by the others).
+const PARTICLE_RUNS_PER_THREAD: usize = 4;
 
 /// A deterministic XPBD mass-spring body (cloth, rope, any particle/link network).
 #[derive(Clone, Debug)]
@@ -65,19 +83,34 @@ struct Motion {
 
 impl Motion {
     /// Predicts positions from velocities, gravity and external forces (pinned particles keep
-    /// still), keeping the start positions in `prev`. Per particle, so any split of the
-    /// particles gives the same bits.
+    /// still), keeping the start positions in `prev`. Per particle ([`Motion::particle`]), so
+    /// any split of the particles gives the same bits.
     fn predict(&self, x: &mut [Vec4], v: &mut [Vec4], f: &[Vec4], prev: &mut [Vec4]) {
-        let Self { h, damp, g } = *self;
         for (((x, v), f), prev) in x.iter_mut().zip(v).zip(f).zip(prev) {
-            let w = x.w;
-            let free = if w > 0.0 { 1.0 } else { 0.0 };
-            // Damping acts on the carried velocity only, so it does not weaken static loads.
-            let vel = (*v * damp + (g + *f * w) * h) * free;
-            *v = vel;
             *prev = *x;
-            *x += vel * h;
+            (*x, *v) = self.particle(*x, *v, *f);
         }
+    }
+
+    /// [`Motion::predict`] of the cells of one thread's range of particles.
+    fn predict_cells(&self, x: &[Cell<Vec4>], v: &[Cell<Vec4>], f: &[Vec4], prev: &[Cell<Vec4>]) {
+        for (((x, v), f), prev) in x.iter().zip(v).zip(f).zip(prev) {
+            let (x0, v0) = (x.get(), v.get());
+            prev.set(x0);
+            let (x1, v1) = self.particle(x0, v0, *f);
+            x.set(x1);
+            v.set(v1);
+        }
+    }
+
+    /// One particle's predicted position and velocity.
+    #[inline(always)]
+    fn particle(&self, x: Vec4, v: Vec4, f: Vec4) -> (Vec4, Vec4) {
+        let Self { h, damp, g } = *self;
+        let free = if x.w > 0.0 { 1.0 } else { 0.0 };
+        // Damping acts on the carried velocity only, so it does not weaken static loads.
+        let vel = (v * damp + (g + f * x.w) * h) * free;
+        (x + vel * h, vel)
     }
 }
 
@@ -85,6 +118,13 @@ impl Motion {
 fn update_velocities(v: &mut [Vec4], x: &[Vec4], prev: &[Vec4], inv_h: f32) {
     for ((v, x), prev) in v.iter_mut().zip(x).zip(prev) {
         *v = (*x - *prev) * inv_h;
+    }
+}
+
+/// [`update_velocities`] of the cells of one thread's range of particles.
+fn update_velocity_cells(v: &[Cell<Vec4>], x: &[Cell<Vec4>], prev: &[Cell<Vec4>], inv_h: f32) {
+    for ((v, x), prev) in v.iter().zip(x).zip(prev) {
+        v.set((x.get() - prev.get()) * inv_h);
     }
 }
 
@@ -639,75 +679,37 @@ impl SoftBody {
             // No contact this step (the last collider may just have been removed).
             self.contact.touched.fill(false);
         }
-        // Particles per thread when the particle loops are split.
-        let c = self.positions.len().div_ceil(threads).max(1);
-        for sub in 0..n {
-            if threads > 1 {
-                self.positions
-                    .par_chunks_mut(c)
-                    .zip(self.velocities.par_chunks_mut(c))
-                    .zip(self.forces.par_chunks(c))
-                    .zip(self.prev.par_chunks_mut(c))
-                    .for_each(|(((x, v), f), prev)| motion.predict(x, v, f, prev));
-            } else {
+        if threads > 1 {
+            self.substeps_team(threads, motion, inv_h, colliding);
+        } else {
+            for sub in 0..n {
                 motion.predict(
                     &mut self.positions,
                     &mut self.velocities,
                     &self.forces,
                     &mut self.prev,
                 );
-            }
-            let t = (sub + 1) as f32 / n as f32;
-            for a in &self.anchors {
-                let i = a.particle as usize;
-                let target = if sub + 1 == n {
-                    a.target
-                } else {
-                    a.start.lerp(a.target, t)
-                };
-                self.positions[i] = target.extend(self.positions[i].w);
-            }
-            self.links.reset_lambdas();
-            self.groups.reset_lambdas();
-            if threads > 1 {
-                let groups = &mut self.groups;
-                self.links.sweeps_split(
-                    self.kernel,
-                    &mut self.positions,
-                    inv_h2,
-                    s.iterations,
-                    s.parallel_min_links as usize,
-                    threads,
-                    |p| {
-                        if !groups.is_empty() {
-                            groups.solve(p, inv_h2);
-                        }
-                    },
-                );
-            } else {
+                for a in &self.anchors {
+                    let i = a.particle as usize;
+                    self.positions[i] = a.position(sub, n).extend(self.positions[i].w);
+                }
+                self.links.reset_lambdas();
+                self.groups.reset_lambdas();
                 for _ in 0..s.iterations {
                     self.links.solve(self.kernel, &mut self.positions, inv_h2);
                     if !self.groups.is_empty() {
                         self.groups.solve(self.positions.as_mut_slice(), inv_h2);
                     }
                 }
-            }
-            if colliding {
-                self.colliders.project(
-                    sub,
-                    n,
-                    &mut self.positions,
-                    &mut self.prev,
-                    &mut self.contact,
-                );
-            }
-            if threads > 1 {
-                self.velocities
-                    .par_chunks_mut(c)
-                    .zip(self.positions.par_chunks(c))
-                    .zip(self.prev.par_chunks(c))
-                    .for_each(|((v, x), prev)| update_velocities(v, x, prev, inv_h));
-            } else {
+                if colliding {
+                    self.colliders.project(
+                        sub,
+                        n,
+                        self.positions.as_mut_slice(),
+                        self.prev.as_mut_slice(),
+                        &mut self.contact,
+                    );
+                }
                 update_velocities(&mut self.velocities, &self.positions, &self.prev, inv_h);
             }
         }
@@ -715,6 +717,115 @@ impl SoftBody {
             a.start = a.target;
         }
         self.colliders.end_step();
+    }
+
+    /// The substeps of [`SoftBody::step`] on a [`team`] of `threads` threads that lives for
+    /// the whole step: per substep the leader publishes the lambda reset and prediction as one
+    /// phase, every split colour batch of every sweep as a phase, and the velocity update as a
+    /// phase; the anchors, small batches, the overflow batch, the group links and the contacts
+    /// run on the leader between phases. Every run of a phase writes only its own particles
+    /// (its range of them, or the disjoint links of one colour batch) or its own blocks, so
+    /// the result has exactly the bits of the one-thread loop.
+    #[allow(unsafe_code)]
+    fn substeps_team(&mut self, threads: usize, motion: Motion, inv_h: f32, colliding: bool) {
+        let s = self.settings;
+        let n = s.substeps;
+        let inv_h2 = inv_h * inv_h;
+        let Self {
+            positions,
+            velocities,
+            forces,
+            prev,
+            anchors,
+            links,
+            groups,
+            kernel,
+            colliders,
+            contact,
+            ..
+        } = self;
+        let path = *kernel;
+        let links = links.runs(s.parallel_min_links as usize, threads);
+        // Run numbers: link runs `0..r` (solve), `r..2r` (reset their multipliers), particle
+        // ranges `2r..2r + chunks` (predict), `2r + chunks..2r + 2chunks` (velocities). The
+        // reset and the prediction are adjacent, so one phase does both when it may have that
+        // many runs. (`LinkStore::runs` makes at most 64 × MAX_RUNS / 4 runs, so every run
+        // number fits a phase's 16-bit start.)
+        let r = links.len();
+        let count = positions.len();
+        let chunks = (threads * PARTICLE_RUNS_PER_THREAD).clamp(1, team::MAX_RUNS / 4);
+        let range = |k: usize| k * count / chunks..(k + 1) * count / chunks;
+        let forces = forces.as_slice();
+        // SAFETY: copies of these views are used (a) by the runs of one phase at a time and
+        // (b) by the leader between phases, when no run is in flight (`Leader::phase` returns
+        // only after every run it published is done; helpers touch particles only inside a
+        // claimed run). The runs of one phase touch disjoint particles: a particle phase hands
+        // each run its own range (`range(k)`, disjoint for distinct `k`) of all three arrays,
+        // and a link phase solves pieces of one colour batch, whose links share no particle
+        // (next paragraph) and touch positions only; a reset run touches no particle at all.
+        // Every copy is dropped when `team::run` returns, having joined its helpers.
+        //
+        // No colour batch holds two links sharing a particle: `LinkStore::insert` puts a link
+        // in colour `c` only when neither end has bit `c` in its colour mask and sets the bit
+        // on both ends; the bit is cleared only when that link leaves the batch (`remove`,
+        // `remove_all_of`); `move_particle` renames a particle that has no links left;
+        // `renumber` rebuilds through `insert` (all checked by `LinkStore::check` in tests).
+        let (x, v, x0) = unsafe {
+            (
+                SharedParticles::new(positions),
+                SharedParticles::new(velocities),
+                SharedParticles::new(prev),
+            )
+        };
+        let work = |run: usize| {
+            if run < r {
+                let mut view = x;
+                links.solve(run, path, &mut view, inv_h2);
+            } else if run < 2 * r {
+                links.reset_lambdas(run - r);
+            } else if run < 2 * r + chunks {
+                let k = range(run - 2 * r);
+                motion.predict_cells(
+                    x.range(k.clone()),
+                    v.range(k.clone()),
+                    &forces[k.clone()],
+                    x0.range(k),
+                );
+            } else {
+                let k = range(run - 2 * r - chunks);
+                update_velocity_cells(v.range(k.clone()), x.range(k.clone()), x0.range(k), inv_h);
+            }
+        };
+        let most = links.parts().max(r + chunks);
+        team::run(threads - 1, most, &work, |leader| {
+            let (mut x, mut x0) = (x, x0);
+            for sub in 0..n {
+                if r + chunks <= team::MAX_RUNS {
+                    leader.phase(r, r + chunks);
+                } else {
+                    for lo in (r..2 * r).step_by(team::MAX_RUNS) {
+                        leader.phase(lo, team::MAX_RUNS.min(2 * r - lo));
+                    }
+                    leader.phase(2 * r, chunks);
+                }
+                for a in anchors.iter() {
+                    let i = a.particle as usize;
+                    x.set(i, a.position(sub, n).extend(x.get(i).w));
+                }
+                links.reset_overflow_lambdas();
+                groups.reset_lambdas();
+                for _ in 0..s.iterations {
+                    links.sweep(leader, path, &mut x, inv_h2);
+                    if !groups.is_empty() {
+                        groups.solve(&mut x, inv_h2);
+                    }
+                }
+                if colliding {
+                    colliders.project(sub, n, &mut x, &mut x0, contact);
+                }
+                leader.phase(2 * r + chunks, chunks);
+            }
+        });
     }
 
     /// How many threads the coming step splits its work over: the current rayon pool's when

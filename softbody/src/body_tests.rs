@@ -436,12 +436,18 @@ fn threads_step_bit_identically() {
             ..ColliderDesc::default()
         })
         .unwrap();
-    let run = |min_links: u32, threads: usize| {
+    // A moving anchor and an external force, so every part of a substep is exercised.
+    let anchor = ParticleId::from_raw(3);
+    reference.set_pinned(anchor, true).unwrap();
+    reference
+        .set_external_force(ParticleId::from_raw(40), Vec3::new(0.3, 0.1, -0.2))
+        .unwrap();
+    let run = |min_links: u32, threads: usize, substeps: u32, iterations: u32| {
         let mut body = reference.clone();
         body.set_settings(SolverSettings {
             parallel_min_links: min_links,
-            substeps: 3,
-            iterations: 4,
+            substeps,
+            iterations,
             ..settings()
         })
         .unwrap();
@@ -450,6 +456,8 @@ fn threads_step_bit_identically() {
                 if step == 4 {
                     thin_links(&mut body, 5, 0.4);
                 }
+                let target = Vec3::new(0.01 * step as f32, 0.0, 0.02 * step as f32);
+                body.set_anchor(anchor, target).unwrap();
                 body.step();
             }
         });
@@ -460,17 +468,21 @@ fn threads_step_bit_identically() {
         );
         (bits(body.positions()), bits(body.velocities()))
     };
-    let sequential = run(0, 1);
     assert!(
         reference.link_count() > 64 * 2 * 16,
         "batches large enough to split"
     );
-    for threads in [1, 2, 4] {
-        for min_links in [1, 200] {
-            assert!(
-                run(min_links, threads) == sequential,
-                "{threads} threads, parallel_min_links {min_links}"
-            );
+    // 3 × 4, and the default 32 substeps × 1 iteration (one team for 32 substeps).
+    let defaults = SolverSettings::default();
+    for (substeps, iterations) in [(3, 4), (defaults.substeps, defaults.iterations)] {
+        let sequential = run(0, 1, substeps, iterations);
+        for threads in [1, 2, 4] {
+            for min_links in [1, 200] {
+                assert!(
+                    run(min_links, threads, substeps, iterations) == sequential,
+                    "{threads} threads, parallel_min_links {min_links}, {substeps} × {iterations}"
+                );
+            }
         }
     }
 }

@@ -45,21 +45,25 @@
 //! [`SolverSettings::DEFAULT_PARALLEL_MIN_LINKS`]) is cut into runs of whole blocks that the
 //! threads of the *caller's* rayon pool (`rayon::current_num_threads()`; a host chooses by
 //! installing a pool) solve at once, and then the per-particle loops (prediction, velocity
-//! update) are split as well. Since a batch's links share no particle, each link computes the
-//! same bits whichever thread solves it and when: **results are bit-identical for any number of
-//! threads** (tested on a grid and on a TreeCut body through refines and coarses). What stays on
-//! the calling thread: smaller batches, the ordered overflow batch, group links, anchors and
-//! contacts. The runs of one batch are shared out by a small team (the caller and spinning
-//! helpers, `team.rs`) at a cost of a fraction of a microsecond per batch, which a step pays
-//! `substeps × iterations × colours` times (`rayon::join` per batch gained nothing: rayon's idle
-//! worker falls asleep between batches). Hence the default threshold of 4096 links per batch,
-//! about 8 µs of work on one core: split in two it leaves the synchronisation under a tenth,
-//! which 129² Bullet-style cloths (about 8,300 links per colour) reach and 65² ones (2,100) do
-//! not. Splitting
+//! update, multiplier reset) are split as well. Since a batch's links share no particle, each
+//! link computes the same bits whichever thread solves it and when: **results are
+//! bit-identical for any number of threads** (tested on a grid and on a TreeCut body through
+//! refines and coarses, at 1 and at the default 32 substeps). What stays on the calling thread:
+//! smaller batches, the ordered overflow batch, group links, anchors and contacts. All of it is
+//! shared out by one small team per step (the caller and spinning helpers, `team.rs`) that
+//! lives for all the substeps: the caller publishes each split batch and each particle loop as
+//! a *phase* of the team and runs the sequential parts between phases, at a cost of a fraction
+//! of a microsecond per phase, which a step pays about `substeps × (iterations × colours + 2)`
+//! times (`rayon::join` per batch gained nothing: rayon's idle worker falls asleep between
+//! batches; a team and rayon particle loops per substep held a 129² cloth at the default
+//! 32 substeps to 1.06–1.15× on two threads). Hence the default threshold of 4096
+//! links per batch, about 8 µs of work on one core: split in two it leaves the synchronisation
+//! under a tenth, which 129² Bullet-style cloths (about 8,300 links per colour) reach and 65²
+//! ones (2,100) do not. Splitting
 //! pays only when the pool's threads have cores to themselves: on an oversubscribed machine a
 //! helper that loses its core mid-run makes the caller wait (use a one-thread pool or
 //! `parallel_min_links = 0` there). The same goes for a host that already steps several bodies
-//! at once on its pool: a body's helpers spin on pool threads for the whole of its sweeps (a
+//! at once on its pool: a body's helpers spin on pool threads for the whole of its step (a
 //! helper that never gets a thread costs nothing: the caller then solves every run itself, and
 //! cannot deadlock whatever the pool is doing). A body whose batches are all smaller never asks rayon for
 //! anything, so small cloths do not even start the global pool.

@@ -19,7 +19,7 @@
 //! whose order matters, removes in order (O(overflow length)), as the paper does.
 
 use crate::ids::{LinkId, ParticleId};
-use crate::kernel::{self, Block, KernelPath, LANES, SharedParticles};
+use crate::kernel::{self, Block, KernelPath, LANES, Particles, SharedParticles};
 use crate::team;
 use glam::Vec4;
 use std::sync::{Mutex, PoisonError};
@@ -116,6 +116,87 @@ impl Batch {
             rest: blk.rest[k],
             compliance: blk.compliance[k],
             weight: blk.weight[k],
+        }
+    }
+}
+
+/// A link store's colour batches as numbered *runs* (pieces of whole blocks, in batch order),
+/// so that a [`team`] can share a batch's runs out between threads (see [`LinkStore::runs`]).
+/// Every method takes `&self`: the mutexes are never contended (each run is claimed once per
+/// phase, the overflow batch is only used by the leader), they only hand a run's blocks to
+/// whichever thread claimed it.
+///
+/// Solving a batch's runs on several threads gives exactly the bits of
+/// [`LinkStore::solve`]: inside a colour batch each link reads and writes only its own two
+/// particles, so which thread solves it, and when, changes nothing.
+pub(crate) struct Runs<'a> {
+    runs: Vec<Mutex<(&'a mut [Block], usize)>>,
+    /// Per colour batch: its first run and how many runs it has.
+    plan: Vec<(usize, usize)>,
+    /// Runs a split batch has (the most runs one phase of a sweep publishes).
+    parts: usize,
+    overflow: Mutex<&'a mut Batch>,
+}
+
+impl Runs<'_> {
+    /// Number of runs (of all batches).
+    pub(crate) fn len(&self) -> usize {
+        self.runs.len()
+    }
+
+    /// The most runs one batch has.
+    pub(crate) fn parts(&self) -> usize {
+        self.parts
+    }
+
+    /// Solves run `run` against `p`.
+    pub(crate) fn solve(&self, run: usize, path: KernelPath, p: &mut impl Particles, inv_h2: f32) {
+        let mut guard = self.runs[run]
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner);
+        let (blocks, len) = &mut *guard;
+        kernel::solve_batch(path, p, blocks, *len, inv_h2);
+    }
+
+    /// Resets the multipliers of run `run` (start of a substep).
+    pub(crate) fn reset_lambdas(&self, run: usize) {
+        let mut guard = self.runs[run]
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner);
+        for blk in guard.0.iter_mut() {
+            blk.lambda = [0.0; LANES];
+        }
+    }
+
+    /// Resets the multipliers of the overflow batch.
+    pub(crate) fn reset_overflow_lambdas(&self) {
+        let mut overflow = self.overflow.lock().unwrap_or_else(PoisonError::into_inner);
+        for blk in &mut overflow.blocks {
+            blk.lambda = [0.0; LANES];
+        }
+    }
+
+    /// One sweep like [`LinkStore::solve`] on the leader of a team whose `work(run)` calls
+    /// [`Runs::solve`] for runs `0..self.len()`: a split batch is published as a phase of its
+    /// runs, a batch of one run and the ordered overflow batch are solved here, against `p`.
+    pub(crate) fn sweep<W: Fn(usize) + Sync>(
+        &self,
+        leader: &team::Leader<'_, W>,
+        path: KernelPath,
+        p: &mut SharedParticles<'_>,
+        inv_h2: f32,
+    ) {
+        for &(start, count) in &self.plan {
+            match count {
+                0 => {}
+                1 => self.solve(start, path, p, inv_h2),
+                _ => leader.phase(start, count),
+            }
+        }
+        let mut overflow = self.overflow.lock().unwrap_or_else(PoisonError::into_inner);
+        let overflow = &mut **overflow;
+        if overflow.len > 0 {
+            kernel::solve_ordered(p, &mut overflow.blocks, overflow.len, inv_h2);
         }
     }
 }
@@ -446,30 +527,14 @@ impl LinkStore {
         self.batches.iter().map(Batch::len).max().unwrap_or(0)
     }
 
-    /// `sweeps` sweeps like [`LinkStore::solve`], each followed by `after_sweep` (the group
-    /// links), with every colour batch of at least `min_links` links cut into runs of whole
-    /// blocks ([`RUNS_PER_THREAD`] per thread) shared out by a [`team`] on the current rayon
-    /// pool; smaller batches, the ordered overflow batch and `after_sweep` run on the calling
-    /// thread, between phases.
-    /// Gives exactly the bits of the sequential sweeps: inside a batch each link reads and
-    /// writes only its own two particles, so which thread solves it, and when, changes nothing.
-    #[allow(unsafe_code)]
-    #[allow(clippy::too_many_arguments)]
-    pub(crate) fn sweeps_split(
-        &mut self,
-        path: KernelPath,
-        p: &mut [Vec4],
-        inv_h2: f32,
-        sweeps: u32,
-        min_links: usize,
-        threads: usize,
-        mut after_sweep: impl FnMut(&mut SharedParticles<'_>) + Send,
-    ) {
-        let parts = (threads * RUNS_PER_THREAD).clamp(1, team::MAX_RUNS);
+    /// The colour batches cut into runs for a [`team`] on `threads` threads: every batch of
+    /// at least `min_links` links (and at least [`MIN_SPLIT`]) as [`RUNS_PER_THREAD`] runs of
+    /// whole blocks per thread, every smaller batch as one run (see [`Runs`]).
+    pub(crate) fn runs(&mut self, min_links: usize, threads: usize) -> Runs<'_> {
+        // At most a quarter of a phase's runs per batch, so that all the run numbers of a
+        // threaded step fit a phase's 16-bit start (see `SoftBody::substeps_team`).
+        let parts = (threads * RUNS_PER_THREAD).clamp(1, team::MAX_RUNS / 4);
         let min_links = min_links.max(MIN_SPLIT);
-        // Every batch as runs of whole blocks (one run when it is too small to split); the
-        // mutexes are never contended (each run is claimed once per phase), they only hand a
-        // run's blocks to whichever thread claimed it.
         let mut runs: Vec<Mutex<(&mut [Block], usize)>> = Vec::new();
         let mut plan: Vec<(usize, usize)> = Vec::with_capacity(self.batches.len());
         for bt in &mut self.batches {
@@ -483,42 +548,12 @@ impl LinkStore {
             }
             plan.push((start, runs.len() - start));
         }
-        let overflow = &mut self.overflow;
-        // SAFETY: copies of this view are used (a) by the runs of one phase at a time, which
-        // solve disjoint pieces of one colour batch, and (b) by the leader between phases
-        // (single-run batches, the overflow batch, `after_sweep`), when no run is in flight
-        // (`Leader::phase` returns only after every run it published is done, and helpers touch
-        // particles only inside a claimed run). No colour batch holds two links sharing a
-        // particle: `insert` puts a link in colour `c` only when neither end has bit `c` in its
-        // colour mask and sets the bit on both ends; the bit is cleared only when that link
-        // leaves the batch (`remove`, `remove_all_of`); `move_particle` renames a particle that
-        // has no links left; `renumber` rebuilds through `insert` (all checked by
-        // `LinkStore::check` in tests). So no particle is written by one thread while another
-        // touches it, as `SharedParticles::new` requires; every copy is dropped when
-        // `team::run` returns, having joined its helpers.
-        let shared = unsafe { SharedParticles::new(p) };
-        let work = |run: usize| {
-            let mut guard = runs[run].lock().unwrap_or_else(PoisonError::into_inner);
-            let (blocks, len) = &mut *guard;
-            let mut view = shared;
-            kernel::solve_batch(path, &mut view, blocks, *len, inv_h2);
-        };
-        team::run(threads - 1, parts, &work, |leader| {
-            let mut view = shared;
-            for _ in 0..sweeps {
-                for &(start, count) in &plan {
-                    match count {
-                        0 => {}
-                        1 => work(start),
-                        _ => leader.phase(start, count),
-                    }
-                }
-                if overflow.len > 0 {
-                    kernel::solve_ordered(&mut view, &mut overflow.blocks, overflow.len, inv_h2);
-                }
-                after_sweep(&mut view);
-            }
-        });
+        Runs {
+            runs,
+            plan,
+            parts,
+            overflow: Mutex::new(&mut self.overflow),
+        }
     }
 
     /// Iterates over all live links (batch order).

@@ -1,5 +1,8 @@
 //! A leader thread and spinning helpers that share out *phases* of numbered runs of work: how
 //! one body's colour batches are split across threads for a fraction of a microsecond per batch.
+//! A threaded [`crate::SoftBody::step`] holds one session for all its substeps: its phases are
+//! the split batches of every sweep and the per-particle loops of every substep (prediction
+//! with the multiplier reset, velocity update), with the sequential parts between them.
 //!
 //! # Why not `rayon::join` per batch
 //! A large cloth runs `substeps × iterations × colours` batches per step (360 at 20 iterations

@@ -47,6 +47,7 @@ pub use shape::{Shape, Transform};
 use shape::Placed;
 
 use crate::error::SoftBodyError;
+use crate::kernel::Particles;
 use glam::{Vec3, Vec3A, Vec4};
 use slod_core::{Arena, Handle};
 
@@ -337,14 +338,15 @@ impl Colliders {
     }
 
     /// Projects the candidates out of every collider and applies friction, for substep `sub`
-    /// of `substeps` (once per substep, after the links). `prev` holds the positions at the
+    /// of `substeps` (once per substep, after the links; `positions` and `prev` are slices or
+    /// the shared views of a threaded step). `prev` holds the positions at the
     /// start of the substep.
-    pub(crate) fn project(
+    pub(crate) fn project<P: Particles + ?Sized>(
         &mut self,
         sub: u32,
         substeps: u32,
-        positions: &mut [Vec4],
-        prev: &mut [Vec4],
+        positions: &mut P,
+        prev: &mut P,
         particles: &mut ContactParticles,
     ) {
         let started = std::time::Instant::now();
@@ -372,7 +374,7 @@ impl Colliders {
             let mu = c.desc.friction;
             for &i in &c.candidates {
                 let i = i as usize;
-                let x = Vec3A::from_vec4(positions[i]);
+                let x = Vec3A::from_vec4(positions.get(i));
                 let (d, n) = placed.distance(x);
                 let depth = c.desc.thickness + particles.radius[i] - d;
                 if depth <= 0.0 {
@@ -387,7 +389,7 @@ impl Colliders {
                 } else {
                     Vec3A::ZERO
                 };
-                let start = Vec3A::from_vec4(prev[i]);
+                let start = Vec3A::from_vec4(prev.get(i));
                 if mu > 0.0 {
                     let rel = y - start - surface;
                     let tangential = rel - n * n.dot(rel);
@@ -405,9 +407,9 @@ impl Colliders {
                 // the outward speed the projection leaves is capped, relative to the surface.
                 let outward = n.dot(y - start - surface) - MAX_SEPARATION_SPEED * h;
                 if outward > 0.0 {
-                    prev[i] = Vec4::from((start + n * outward, prev[i].w));
+                    prev.set(i, Vec4::from((start + n * outward, prev.get(i).w)));
                 }
-                positions[i] = Vec4::from((y, positions[i].w));
+                positions.set(i, Vec4::from((y, positions.get(i).w)));
             }
         }
         self.last_seconds += started.elapsed().as_secs_f64();

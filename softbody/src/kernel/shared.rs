@@ -41,12 +41,18 @@ impl<'a> SharedParticles<'a> {
     /// # Safety
     /// While the view or any copy of it is in use, no particle may be written through one copy
     /// while another thread reads or writes it through another copy. Solving chunks of *one
-    /// colour batch* on different threads satisfies this (the batch's links share no particle);
-    /// every copy must be dropped before the next batch begins.
+    /// colour batch* on different threads satisfies this (the batch's links share no particle),
+    /// as long as no thread starts on the next batch before every thread is done with this one.
+    /// So does handing each thread its own range of particles ([`SharedParticles::range`]).
     pub(crate) unsafe fn new(p: &'a mut [Vec4]) -> Self {
         Self {
             cells: Cell::from_mut(p).as_slice_of_cells(),
         }
+    }
+
+    /// The particles `range` as cells, for a loop over a thread's own range of particles.
+    pub(crate) fn range(&self, range: std::ops::Range<usize>) -> &'a [Cell<Vec4>] {
+        &self.cells[range]
     }
 }
 

@@ -272,11 +272,13 @@ fn random_runs_are_bit_identical() {
 /// the same run on one thread.
 #[test]
 fn threads_keep_random_runs_bit_identical() {
-    let run = |threads: usize| {
+    let run = |threads: usize, substeps: u32, iterations: u32| {
         let mut tc = body(33, 1, true);
         assert!(tc.body().batch_sizes().iter().any(|&n| n >= 4 * 32));
         let solver = SolverSettings {
             parallel_min_links: 1,
+            substeps,
+            iterations,
             ..tc.settings().solver
         };
         tc.set_solver_settings(solver).unwrap();
@@ -295,9 +297,17 @@ fn threads_keep_random_runs_bit_identical() {
             tc.particle_nodes().to_vec(),
         )
     };
-    let one = run(1);
-    assert!(run(2) == one, "2 threads differ from 1");
-    assert!(run(4) == one, "4 threads differ from 1");
+    // The tests' 1 × 10 and the default 32 substeps × 1 iteration (one team for 32 substeps).
+    let defaults = SolverSettings::default();
+    for (substeps, iterations) in [(1, 10), (defaults.substeps, defaults.iterations)] {
+        let one = run(1, substeps, iterations);
+        for threads in [2, 4] {
+            assert!(
+                run(threads, substeps, iterations) == one,
+                "{threads} threads differ from 1 at {substeps} × {iterations}"
+            );
+        }
+    }
 }
 
 #[test]
