@@ -19,7 +19,7 @@ use glam::{Affine3A, Quat, Vec3, Vec3A, Vec4};
 use crate::error::BuildError;
 use crate::ids::BoneId;
 use crate::skeleton::Skeleton;
-use crate::transform::{Transform, compose};
+use crate::transform::{Transform, compose, compose4};
 
 pub use crate::sampling::Interpolation;
 pub(crate) use crate::sampling::{Block, ChannelRef, Cursor, TrsScratch, locate};
@@ -265,6 +265,7 @@ fn push_channel<T: Copy>(
             interpolation,
             bones: vec![bone],
             keys: values,
+            lanes: Vec::new(),
         });
     }
 }
@@ -409,6 +410,7 @@ impl Clip {
         }
         translations.iter_mut().for_each(transpose);
         rotations.iter_mut().for_each(transpose);
+        rotations.iter_mut().for_each(Block::build_lanes);
         scales.iter_mut().for_each(transpose);
         let base_locals = base_pose.iter().map(Transform::to_affine).collect();
         let animated: Vec<u32> = (0..n as u32)
@@ -546,7 +548,7 @@ impl Clip {
             b.sample(cursors[b.group as usize], &mut s.t);
         }
         for b in &self.rotations {
-            b.sample(cursors[b.group as usize], &mut s.r);
+            b.sample_rotations(cursors[b.group as usize], &mut s.r);
         }
         for b in &self.scales {
             b.sample(cursors[b.group as usize], &mut s.s);
@@ -596,7 +598,15 @@ impl Clip {
     /// Rebuilds the local matrices of every animated bone from the scratch.
     #[inline]
     pub(crate) fn compose(&self, s: &TrsScratch, locals: &mut [Affine3A]) {
-        for &b in &self.animated {
+        let mut fours = self.animated.chunks_exact(4);
+        for b in &mut fours {
+            let b = [b[0] as usize, b[1] as usize, b[2] as usize, b[3] as usize];
+            let m = compose4(b.map(|b| s.s[b]), b.map(|b| s.r[b]), b.map(|b| s.t[b]));
+            for (&b, m) in b.iter().zip(m) {
+                locals[b] = m;
+            }
+        }
+        for &b in fours.remainder() {
             let b = b as usize;
             locals[b] = compose(s.s[b], s.r[b], s.t[b]);
         }
@@ -992,5 +1002,78 @@ mod tests {
         let p = clip.sample_pose(0.25);
         assert!((rotation_angle(p[1].rotation, Quat::IDENTITY) - 0.1).abs() < 1e-4);
         assert!((rotation_angle(p[2].rotation, Quat::IDENTITY) - 0.075).abs() < 1e-4);
+    }
+}
+#[cfg(test)]
+mod lane_tests {
+    use super::*;
+
+    /// The lane paths (four rotations interpolated at once, four bones composed at once) give the
+    /// poses of the per-channel, per-bone path within 1e-5 on every clip of the bundled rigs, with
+    /// and without constant-channel folding.
+    #[test]
+    fn lane_sampling_matches_per_channel_sampling() {
+        let dir = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets/gltf");
+        let mut files: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| matches!(p.extension().and_then(|e| e.to_str()), Some("glb" | "gltf")))
+            .collect();
+        files.sort();
+        assert!(files.len() >= 5, "{files:?}");
+        let (mut lane_blocks, mut clips) = (0, 0);
+        for file in &files {
+            for clip_options in [ClipOptions::default(), ClipOptions::SAMPLE_ALL] {
+                let options = crate::ImportOptions { clip: clip_options };
+                let rig = crate::build::import_path_with(file, &options).unwrap();
+                let n = rig.bone_count();
+                for clip in rig.clips() {
+                    clips += 1;
+                    lane_blocks += clip
+                        .rotations
+                        .iter()
+                        .filter(|b| !b.lanes.is_empty())
+                        .count();
+                    let (mut cursors, mut s, mut fast) = (
+                        Vec::new(),
+                        TrsScratch::default(),
+                        vec![Affine3A::IDENTITY; n],
+                    );
+                    let mut r = TrsScratch::default();
+                    let mut slow = vec![Affine3A::IDENTITY; n];
+                    let d = clip.duration();
+                    for i in 0..=64 {
+                        let t = -0.05 + (d + 0.1) * i as f32 / 64.0;
+                        clip.sample_locals(t, &mut cursors, &mut s, &mut fast);
+                        r.prepare(clip.base_pose());
+                        for b in &clip.translations {
+                            b.sample(cursors[b.group as usize], &mut r.t);
+                        }
+                        for b in &clip.rotations {
+                            b.sample(cursors[b.group as usize], &mut r.r);
+                        }
+                        for b in &clip.scales {
+                            b.sample(cursors[b.group as usize], &mut r.s);
+                        }
+                        slow.copy_from_slice(&clip.base_locals);
+                        for &b in &clip.animated {
+                            let b = b as usize;
+                            slow[b] = compose(r.s[b], r.r[b], r.t[b]);
+                        }
+                        for b in 0..n {
+                            let what = format!("{file:?} {} t={t} bone {b}", clip.name());
+                            assert!(
+                                Vec4::from(s.r[b]).abs_diff_eq(Vec4::from(r.r[b]), 1e-5),
+                                "{what}: {:?} vs {:?}",
+                                s.r[b],
+                                r.r[b]
+                            );
+                            assert!(fast[b].abs_diff_eq(slow[b], 1e-5), "{what}");
+                        }
+                    }
+                }
+            }
+        }
+        assert!(lane_blocks > 0 && clips > 10, "{lane_blocks} {clips}");
     }
 }
