@@ -170,6 +170,9 @@ pub struct Clip {
     pub(crate) base_locals: Vec<Affine3A>,
     /// Bones with at least one animated channel, ascending (parents first).
     pub(crate) animated: Vec<u32>,
+    /// The animated bones whose rotation is not in a lane block (constant or not linear): the
+    /// ones [`Clip::sample_compose`] composes after the lane blocks, ascending.
+    pub(crate) compose_rest: Vec<u32>,
     /// Per animated-bone slot: its translation, rotation and scale channels.
     pub(crate) slot_channels: Vec<[ChannelRef; 3]>,
     /// Bones that are animated or have an animated ancestor: the ones whose model matrix changes
@@ -181,6 +184,23 @@ pub struct Clip {
     stats: ChannelStats,
     source: Vec<ChannelDesc>,
     options: ClipOptions,
+}
+
+/// Composes the local matrices of `bones` from the scratch, four at a time.
+#[inline]
+fn compose_bones(bones: &[u32], s: &TrsScratch, locals: &mut [Affine3A]) {
+    let mut fours = bones.chunks_exact(4);
+    for b in &mut fours {
+        let b = [b[0] as usize, b[1] as usize, b[2] as usize, b[3] as usize];
+        let m = compose4(b.map(|b| s.s[b]), b.map(|b| s.r[b]), b.map(|b| s.t[b]));
+        for (&b, m) in b.iter().zip(m) {
+            locals[b] = m;
+        }
+    }
+    for &b in fours.remainder() {
+        let b = b as usize;
+        locals[b] = compose(s.s[b], s.r[b], s.t[b]);
+    }
 }
 
 fn bad_times(times: &[f32]) -> bool {
@@ -441,6 +461,15 @@ impl Clip {
                 u32::MAX
             })
             .collect();
+        let mut in_lanes = vec![false; n];
+        for b in rotations.iter().filter(|b| !b.lanes.is_empty()) {
+            b.bones.iter().for_each(|&b| in_lanes[b as usize] = true);
+        }
+        let compose_rest = animated
+            .iter()
+            .copied()
+            .filter(|&b| !in_lanes[b as usize])
+            .collect();
         let mut slot_channels = vec![[ChannelRef::NONE; 3]; animated.len()];
         let mut refs = |p: usize, blocks: &mut dyn Iterator<Item = &Vec<u32>>| {
             for (bi, bones) in blocks.enumerate() {
@@ -465,6 +494,7 @@ impl Clip {
             base_pose,
             base_locals,
             animated,
+            compose_rest,
             slot_channels,
             moving,
             ancestor_slot,
@@ -555,6 +585,33 @@ impl Clip {
         }
     }
 
+    /// Samples every animated channel and composes the local matrix of every animated bone: the
+    /// full-detail path. Rotations of linear blocks are composed straight from their lanes (and
+    /// not stored in the scratch); the other animated bones from the scratch, four at a time.
+    #[inline]
+    pub(crate) fn sample_compose(
+        &self,
+        cursors: &[Cursor],
+        s: &mut TrsScratch,
+        locals: &mut [Affine3A],
+    ) {
+        for b in &self.translations {
+            b.sample(cursors[b.group as usize], &mut s.t);
+        }
+        for b in &self.scales {
+            b.sample(cursors[b.group as usize], &mut s.s);
+        }
+        for b in &self.rotations {
+            let cur = cursors[b.group as usize];
+            if b.lanes.is_empty() {
+                b.sample(cur, &mut s.r);
+            } else {
+                b.sample_compose(cur, &s.t, &s.s, locals);
+            }
+        }
+        compose_bones(&self.compose_rest, s, locals);
+    }
+
     /// Samples and composes only the animated-bone slots listed in `slots`: the cost of a partial
     /// update is proportional to the bones that interpolate, not to all animated bones. Two
     /// passes (sample every listed channel, then compose every listed bone), like the block path,
@@ -595,23 +652,6 @@ impl Clip {
         }
     }
 
-    /// Rebuilds the local matrices of every animated bone from the scratch.
-    #[inline]
-    pub(crate) fn compose(&self, s: &TrsScratch, locals: &mut [Affine3A]) {
-        let mut fours = self.animated.chunks_exact(4);
-        for b in &mut fours {
-            let b = [b[0] as usize, b[1] as usize, b[2] as usize, b[3] as usize];
-            let m = compose4(b.map(|b| s.s[b]), b.map(|b| s.r[b]), b.map(|b| s.t[b]));
-            for (&b, m) in b.iter().zip(m) {
-                locals[b] = m;
-            }
-        }
-        for &b in fours.remainder() {
-            let b = b as usize;
-            locals[b] = compose(s.s[b], s.r[b], s.t[b]);
-        }
-    }
-
     /// Full local pose at time `t` (not wrapped), as matrices for every bone. Allocation-free
     /// apart from growing `cursors`; for reference evaluation and analysis.
     pub(crate) fn sample_locals(
@@ -623,9 +663,8 @@ impl Clip {
     ) {
         s.prepare(&self.base_pose);
         self.locate_all(t, cursors);
-        self.sample(cursors, s);
         out.copy_from_slice(&self.base_locals);
-        self.compose(s, out);
+        self.sample_compose(cursors, s, out);
     }
 
     /// The local pose (translation, rotation, scale of every bone) at time `t` (not wrapped).
@@ -1039,7 +1078,7 @@ mod lane_tests {
                         TrsScratch::default(),
                         vec![Affine3A::IDENTITY; n],
                     );
-                    let mut r = TrsScratch::default();
+                    let (mut r, mut q) = (TrsScratch::default(), TrsScratch::default());
                     let mut slow = vec![Affine3A::IDENTITY; n];
                     let d = clip.duration();
                     for i in 0..=64 {
@@ -1055,6 +1094,8 @@ mod lane_tests {
                         for b in &clip.scales {
                             b.sample(cursors[b.group as usize], &mut r.s);
                         }
+                        q.prepare(clip.base_pose());
+                        clip.sample(&cursors, &mut q);
                         slow.copy_from_slice(&clip.base_locals);
                         for &b in &clip.animated {
                             let b = b as usize;
@@ -1063,9 +1104,9 @@ mod lane_tests {
                         for b in 0..n {
                             let what = format!("{file:?} {} t={t} bone {b}", clip.name());
                             assert!(
-                                Vec4::from(s.r[b]).abs_diff_eq(Vec4::from(r.r[b]), 1e-5),
+                                Vec4::from(q.r[b]).abs_diff_eq(Vec4::from(r.r[b]), 1e-5),
                                 "{what}: {:?} vs {:?}",
-                                s.r[b],
+                                q.r[b],
                                 r.r[b]
                             );
                             assert!(fast[b].abs_diff_eq(slow[b], 1e-5), "{what}");

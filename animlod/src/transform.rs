@@ -103,22 +103,31 @@ pub(crate) fn compose(scale: Vec3A, rotation: Quat, translation: Vec3A) -> Affin
 }
 
 /// [`compose`] for four bones at once: the rotations are transposed into lanes (`x` of the four,
-/// `y` of the four, …) so that the quaternion-to-matrix products are vertical vector arithmetic,
-/// and the columns are transposed back. The same formulas as glam's
-/// `Affine3A::from_scale_rotation_translation`, term for term.
+/// `y` of the four, …) and composed by [`compose_lanes`].
 #[inline]
 pub(crate) fn compose4(
     scale: [Vec3A; 4],
     rotation: [Quat; 4],
     translation: [Vec3A; 4],
 ) -> [Affine3A; 4] {
-    let flush = |q: Quat| {
-        let q = Vec4::from(q);
-        Vec4::select(q.abs().cmplt(Vec4::splat(TINY_COMPONENT)), Vec4::ZERO, q)
-    };
-    let [q0, q1, q2, q3] = rotation.map(flush);
+    let [q0, q1, q2, q3] = rotation.map(Vec4::from);
     let q = Mat4::from_cols(q0, q1, q2, q3).transpose();
-    let (x, y, z, w) = (q.x_axis, q.y_axis, q.z_axis, q.w_axis);
+    compose_lanes(scale, [q.x_axis, q.y_axis, q.z_axis, q.w_axis], translation)
+}
+
+/// [`compose`] for four bones whose rotations are given in lanes (`q[0]` the `x` of the four,
+/// `q[1]` the `y`, …): the quaternion-to-matrix products run as vertical vector arithmetic and
+/// the columns are transposed back. The same formulas as glam's
+/// `Affine3A::from_scale_rotation_translation`, term for term, and the same flush of tiny
+/// components.
+#[inline(always)]
+pub(crate) fn compose_lanes(
+    scale: [Vec3A; 4],
+    q: [Vec4; 4],
+    translation: [Vec3A; 4],
+) -> [Affine3A; 4] {
+    let flush = |v: Vec4| Vec4::select(v.abs().cmplt(Vec4::splat(TINY_COMPONENT)), Vec4::ZERO, v);
+    let [x, y, z, w] = q.map(flush);
     let [s0, s1, s2, s3] = scale.map(|s| s.extend(0.0));
     let s = Mat4::from_cols(s0, s1, s2, s3).transpose();
     let (x2, y2, z2) = (x + x, y + y, z + z);
