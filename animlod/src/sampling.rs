@@ -1,11 +1,18 @@
 //! The playback core: key blocks stored key-major, the segment search, per-channel
 //! interpolation (step, linear with shortest-path rotations, cubic Hermite), and the per-character
 //! scratch the sampled values land in. [`crate::Clip`] builds these when it is built.
+//!
+//! Linear rotation blocks also keep their keys in lanes of four channels (structure of arrays:
+//! per key, per group of four channels, one vector of `x`, one of `y`, one of `z`, one of `w`), so
+//! that the interpolation and normalisation of four rotations run as plain vertical vector
+//! arithmetic instead of per-quaternion horizontal sums. This is the layout idea of
+//! ozz-animation's runtime sampler (G. Blanc, ozz-animation, `SamplingJob`: "SoA" tracks of four);
+//! unlike ozz, keys stay in one shared key-time row per block, so no per-track cursor is needed.
 
-use glam::{Quat, Vec3A, Vec4};
+use glam::{Affine3A, Mat4, Quat, Vec3A, Vec4};
 
-use crate::transform::Transform;
 use crate::transform::interpolate_rotation;
+use crate::transform::{Transform, compose_lanes};
 
 /// How values between two keys are computed (the glTF sampler interpolations).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -62,6 +69,11 @@ pub(crate) struct Block<T> {
     /// Key-major values: row `k` (or rows `3k..3k+3` for cubic: in, value, out) holds one value
     /// per channel.
     pub(crate) keys: Vec<T>,
+    /// Linear rotation blocks only (empty otherwise): the keys again in lanes of four channels,
+    /// `lanes[(k * groups + g) * 4 + i]` holding component `i` (`x y z w`) of channels
+    /// `4g..4g + 4` at key `k`; a last group with fewer than four channels is padded with the
+    /// identity.
+    pub(crate) lanes: Vec<Vec4>,
 }
 
 /// Where an animated bone's channel of one property lives: block index and column, or
@@ -191,6 +203,117 @@ impl<T: KeyValue> Block<T> {
                 for (i, &b) in self.bones.iter().enumerate() {
                     out[b as usize] = T::hermite(v0[i], out0[i], v1[i], in1[i], &w);
                 }
+            }
+        }
+    }
+}
+
+impl Block<Quat> {
+    /// Fills [`Block::lanes`] from the key-major keys (linear blocks only).
+    pub(crate) fn build_lanes(&mut self) {
+        self.lanes.clear();
+        if self.interpolation != Interpolation::Linear || self.bones.is_empty() {
+            return;
+        }
+        let c = self.bones.len();
+        for row in self.keys.chunks_exact(c) {
+            for group in row.chunks(4) {
+                let mut q = [Vec4::W; 4];
+                for (dst, src) in q.iter_mut().zip(group) {
+                    *dst = Vec4::from(*src);
+                }
+                let m = Mat4::from_cols(q[0], q[1], q[2], q[3]).transpose();
+                self.lanes.extend([m.x_axis, m.y_axis, m.z_axis, m.w_axis]);
+            }
+        }
+    }
+
+    /// Samples every channel of a rotation block into `out[bone]`: linear blocks four channels at
+    /// a time from [`Block::lanes`] (the same arithmetic as [`interpolate_rotation`], lane by
+    /// lane), other interpolations through [`Block::sample`].
+    #[inline]
+    pub(crate) fn sample_rotations(&self, cur: Cursor, out: &mut [Quat]) {
+        if self.lanes.is_empty() {
+            self.sample(cur, out);
+            return;
+        }
+        let n = self.bones.len();
+        for (g, v) in self.lane_groups(cur) {
+            let m = Mat4::from_cols(v[0], v[1], v[2], v[3]).transpose();
+            let bones = &self.bones[4 * g..(4 * g + 4).min(n)];
+            for (i, &bone) in bones.iter().enumerate() {
+                out[bone as usize] = Quat::from_vec4(m.col(i));
+            }
+        }
+    }
+
+    /// The interpolated rotations of a linear block at `cur`, four channels at a time: group `g`
+    /// and its `x y z w` lanes. The arithmetic of [`interpolate_rotation`], lane by lane.
+    #[inline(always)]
+    fn lane_groups(&self, cur: Cursor) -> impl Iterator<Item = (usize, [Vec4; 4])> + '_ {
+        let row = self.bones.len().div_ceil(4) * 4;
+        let k = cur.k as usize;
+        let a = &self.lanes[k * row..(k + 1) * row];
+        let b = &self.lanes[(k + 1) * row..(k + 2) * row];
+        let t = cur.alpha;
+        let c = t - 0.5;
+        let (c2, tc) = (Vec4::splat(c * c), Vec4::splat(t * c * (t - 1.0)));
+        let t = Vec4::splat(t);
+        a.chunks_exact(4)
+            .zip(b.chunks_exact(4))
+            .enumerate()
+            .map(move |(g, (a, b))| {
+                let d = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]).abs();
+                let ka = Vec4::splat(1.0904)
+                    + d * (Vec4::splat(-3.2452) + d * (Vec4::splat(3.55645) - d * 1.43519));
+                let kb = Vec4::splat(0.848013) + d * (Vec4::splat(-1.06021) + d * 0.215638);
+                let k = ka * c2 + kb;
+                let ot = t + tc * k;
+                let v = [
+                    a[0] + (b[0] - a[0]) * ot,
+                    a[1] + (b[1] - a[1]) * ot,
+                    a[2] + (b[2] - a[2]) * ot,
+                    a[3] + (b[3] - a[3]) * ot,
+                ];
+                let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[3] * v[3])
+                    .to_array()
+                    .map(f32::sqrt);
+                let inv = Vec4::ONE / Vec4::from_array(len);
+                (g, v.map(|v| v * inv))
+            })
+    }
+
+    /// Samples a linear block's rotations and composes its bones' local matrices with the
+    /// translations and scales already sampled into `t` and `s`, four bones at a time without
+    /// leaving the lanes (the rotations are not stored).
+    #[inline]
+    pub(crate) fn sample_compose(
+        &self,
+        cur: Cursor,
+        t: &[Vec3A],
+        s: &[Vec3A],
+        locals: &mut [Affine3A],
+    ) {
+        debug_assert!(!self.lanes.is_empty());
+        let n = self.bones.len();
+        for (g, q) in self.lane_groups(cur) {
+            let bones = &self.bones[4 * g..(4 * g + 4).min(n)];
+            if let Ok(b) = <&[u32; 4]>::try_from(bones) {
+                // A whole group: fixed-size gathers and stores, no per-lane loop.
+                let b = b.map(|b| b as usize);
+                let m = compose_lanes(b.map(|b| s[b]), q, b.map(|b| t[b]));
+                for (b, m) in b.into_iter().zip(m) {
+                    locals[b] = m;
+                }
+                continue;
+            }
+            let (mut bt, mut bs) = ([Vec3A::ZERO; 4], [Vec3A::ONE; 4]);
+            for (i, &b) in bones.iter().enumerate() {
+                (bt[i], bs[i]) = (t[b as usize], s[b as usize]);
+            }
+            let m = compose_lanes(bs, q, bt);
+            for (&b, m) in bones.iter().zip(m) {
+                locals[b as usize] = m;
             }
         }
     }

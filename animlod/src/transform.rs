@@ -1,7 +1,7 @@
 //! Bone transforms and the small amount of quaternion and matrix math the sampler needs:
 //! shortest-path interpolation, the angle between two rotations, and parent × local concatenation.
 
-use glam::{Affine3A, Mat4, Quat, Vec3, Vec3A, Vec4};
+use glam::{Affine3A, Mat3A, Mat4, Quat, Vec3, Vec3A, Vec4};
 
 /// A bone's local transform as translation, rotation and scale (applied scale first, then
 /// rotation, then translation: the glTF convention).
@@ -100,6 +100,55 @@ pub(crate) fn compose(scale: Vec3A, rotation: Quat, translation: Vec3A) -> Affin
     let q = Vec4::from(rotation);
     let q = Vec4::select(q.abs().cmplt(Vec4::splat(TINY_COMPONENT)), Vec4::ZERO, q);
     Affine3A::from_scale_rotation_translation(scale.into(), Quat::from_vec4(q), translation.into())
+}
+
+/// [`compose`] for four bones at once: the rotations are transposed into lanes (`x` of the four,
+/// `y` of the four, …) and composed by [`compose_lanes`].
+#[inline]
+pub(crate) fn compose4(
+    scale: [Vec3A; 4],
+    rotation: [Quat; 4],
+    translation: [Vec3A; 4],
+) -> [Affine3A; 4] {
+    let [q0, q1, q2, q3] = rotation.map(Vec4::from);
+    let q = Mat4::from_cols(q0, q1, q2, q3).transpose();
+    compose_lanes(scale, [q.x_axis, q.y_axis, q.z_axis, q.w_axis], translation)
+}
+
+/// [`compose`] for four bones whose rotations are given in lanes (`q[0]` the `x` of the four,
+/// `q[1]` the `y`, …): the quaternion-to-matrix products run as vertical vector arithmetic and
+/// the columns are transposed back. The same formulas as glam's
+/// `Affine3A::from_scale_rotation_translation`, term for term, and the same flush of tiny
+/// components.
+#[inline(always)]
+pub(crate) fn compose_lanes(
+    scale: [Vec3A; 4],
+    q: [Vec4; 4],
+    translation: [Vec3A; 4],
+) -> [Affine3A; 4] {
+    let flush = |v: Vec4| Vec4::select(v.abs().cmplt(Vec4::splat(TINY_COMPONENT)), Vec4::ZERO, v);
+    let [x, y, z, w] = q.map(flush);
+    let [s0, s1, s2, s3] = scale.map(|s| s.extend(0.0));
+    let s = Mat4::from_cols(s0, s1, s2, s3).transpose();
+    let (x2, y2, z2) = (x + x, y + y, z + z);
+    let (xx, xy, xz) = (x * x2, x * y2, x * z2);
+    let (yy, yz, zz) = (y * y2, y * z2, z * z2);
+    let (wx, wy, wz) = (w * x2, w * y2, w * z2);
+    let one = Vec4::ONE;
+    let columns = |a: Vec4, b: Vec4, c: Vec4, k: Vec4| {
+        Mat4::from_cols(a * k, b * k, c * k, Vec4::ZERO).transpose()
+    };
+    let cx = columns(one - (yy + zz), xy + wz, xz - wy, s.x_axis);
+    let cy = columns(xy - wz, one - (xx + zz), yz + wx, s.y_axis);
+    let cz = columns(xz + wy, yz - wx, one - (xx + yy), s.z_axis);
+    std::array::from_fn(|i| Affine3A {
+        matrix3: Mat3A::from_cols(
+            Vec3A::from_vec4(cx.col(i)),
+            Vec3A::from_vec4(cy.col(i)),
+            Vec3A::from_vec4(cz.col(i)),
+        ),
+        translation: translation[i],
+    })
 }
 
 /// `parent × local` for a 4×4 parent and an affine local transform (its last row is `0 0 0 1`),

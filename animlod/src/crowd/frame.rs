@@ -434,8 +434,7 @@ fn advance_character(
     s.trs.prepare(clip.base_pose());
     clip.locate_all(c.time, &mut s.cursors);
     if full {
-        clip.sample(&s.cursors, &mut s.trs);
-        clip.compose(&s.trs, locals);
+        clip.sample_compose(&s.cursors, &mut s.trs, locals);
         last[..slots].fill(c.clock);
         drift[..slots].fill(0.0);
         let sampled = clock.map(|t| (t, Instant::now()));

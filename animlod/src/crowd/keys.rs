@@ -137,8 +137,7 @@ fn evaluate(
 ) {
     s.trs.prepare(clip.base_pose());
     clip.locate_all(t, &mut s.cursors);
-    clip.sample(&s.cursors, &mut s.trs);
-    clip.compose(&s.trs, locals);
+    clip.sample_compose(&s.cursors, &mut s.trs, locals);
     concat_moving(parents, &clip.moving, locals, out);
 }
 
