@@ -8,9 +8,8 @@
 //! actor's benefit) and Unreal's animation budget allocator (a millisecond budget for all
 //! skeletal meshes, with per-component overrides).
 //!
-//! The budgeter does not own the objects: a frame is `begin_frame`, then `advance_crowds` and
-//! `step_cloths` (or both at once, `advance_and_step`), then `end_frame`, each given the objects
-//! by key, so [`super::World`] (Rust) and the C world (its own arenas, and bone-attached cloths
+//! The budgeter does not own the objects: a frame is `begin_frame`, `advance_crowds`,
+//! `step_cloths`, `end_frame`, each given the objects by key, so [`super::World`] (Rust) and the C world (its own arenas, and bone-attached cloths
 //! that must see their character's new pose between the crowd and the cloth phase) share it.
 //! What runs on the threads is in [`super::jobs`].
 
@@ -327,41 +326,6 @@ impl FrameBudgeter {
         self.account_cloths(frame, jobs);
     }
 
-    /// [`FrameBudgeter::advance_crowds`] and [`FrameBudgeter::step_cloths`] at once, for worlds
-    /// where no cloth depends on a crowd's new pose (the Rust [`super::World`]): the crowds and
-    /// the cloths are one pool of work for the threads, so neither phase's tail leaves a thread
-    /// idle. Results are those of the two calls one after the other (the objects are
-    /// independent), so the cost-unit budget stays deterministic.
-    pub fn advance_and_step<'a, 'b>(
-        &mut self,
-        frame: &mut Frame,
-        dt: f32,
-        view: &View,
-        crowds: impl IntoIterator<Item = (ObjectKey, &'a mut Crowd)>,
-        cloths: impl IntoIterator<Item = (ObjectKey, &'b mut AdaptiveCloth)>,
-    ) {
-        let mut crowd_jobs = self.prepare_crowds(frame, crowds);
-        let mut cloth_jobs = self.prepare_cloths(frame, dt, cloths);
-        let (model, threads) = (self.settings.cost.cloth, self.cloth_threads());
-        let (crowd_ms, cloth_ms) = if self.serial() {
-            (
-                run_crowds(&mut crowd_jobs, dt, view),
-                run_cloths(&mut cloth_jobs, view, model, threads),
-            )
-        } else {
-            self.install(|| {
-                rayon::join(
-                    || run_crowds(&mut crowd_jobs, dt, view),
-                    || run_cloths(&mut cloth_jobs, view, model, threads),
-                )
-            })
-        };
-        frame.stats.crowd_ms += crowd_ms;
-        frame.stats.cloth_ms += cloth_ms;
-        self.account_crowds(frame, crowd_jobs);
-        self.account_cloths(frame, cloth_jobs);
-    }
-
     /// Threads the cloth phase shares its cloths out to (1 when serial).
     fn cloth_threads(&self) -> usize {
         if self.serial() {
@@ -532,6 +496,21 @@ impl FrameBudgeter {
     /// still advanced; the statistics are kept either way).
     pub fn end_frame(&mut self, mut frame: Frame) -> Result<WorldStepStats, WorldError> {
         frame.stats.wall_ms = frame.start.elapsed().as_secs_f64() * 1e3;
+        if std::env::var("DBG_WORLD").is_ok() && self.settings.target != BudgetTarget::None {
+            let st = &frame.stats;
+            eprintln!(
+                "DBGW {} wall {:.2} crowd {:.2} cloth {:.2} ev {} bones {} nodes {} units {:.0} bound {:.2}",
+                st.frame,
+                st.wall_ms,
+                st.crowd_ms,
+                st.cloth_ms,
+                st.evaluations,
+                st.bones_interpolated,
+                st.cloth_nodes,
+                st.cost_units,
+                st.error_bound_px
+            );
+        }
         let measured = match self.settings.target {
             BudgetTarget::None => None,
             BudgetTarget::Milliseconds(ms) => Some((

@@ -161,8 +161,8 @@ impl World {
     }
 
     /// Advances every crowd by `dt` seconds and every cloth through `dt` seconds of its own
-    /// solver steps, seen through `view`, under the budget: crowds (each split across the
-    /// threads) and cloths (in parallel, largest first) share the threads as one pool of work. An object that fails is reported as the error
+    /// solver steps, seen through `view`, under the budget: crowds first (each split across the
+    /// threads), then the cloths in parallel, largest first. An object that fails is reported as the error
     /// after every other object has advanced.
     pub fn step(&mut self, dt: f32, view: &View) -> Result<WorldStepStats, WorldError> {
         if !(dt.is_finite() && (0.0..=3600.0).contains(&dt)) {
@@ -172,14 +172,18 @@ impl World {
             });
         }
         let mut frame = self.budget.begin_frame();
-        // No cloth of a Rust world hangs on a crowd's pose, so both run as one pool of work.
-        self.budget.advance_and_step(
+        self.budget.advance_crowds(
             &mut frame,
             dt,
             view,
             self.crowds
                 .iter_mut()
                 .map(|(h, c)| (CrowdKey(h).object(), c)),
+        );
+        self.budget.step_cloths(
+            &mut frame,
+            dt,
+            view,
             self.cloths
                 .iter_mut()
                 .map(|(h, c)| (ClothKey(h).object(), c)),
