@@ -45,6 +45,21 @@ pub struct ObjectKey {
     pub id: u64,
 }
 
+impl ObjectKey {
+    /// The key of the object of `kind` in slot `index` with stamp `generation`.
+    pub(crate) fn new(kind: ObjectKind, index: u32, generation: u32) -> ObjectKey {
+        ObjectKey {
+            kind,
+            id: (generation as u64) << 32 | index as u64,
+        }
+    }
+
+    /// The slot index and generation the key was made from.
+    pub(crate) fn slot(self) -> (u32, u32) {
+        (self.id as u32, (self.id >> 32) as u32)
+    }
+}
+
 /// What one object did in one frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ObjectFrame {
@@ -496,33 +511,15 @@ impl FrameBudgeter {
     /// still advanced; the statistics are kept either way).
     pub fn end_frame(&mut self, mut frame: Frame) -> Result<WorldStepStats, WorldError> {
         frame.stats.wall_ms = frame.start.elapsed().as_secs_f64() * 1e3;
-        if std::env::var("DBG_WORLD").is_ok() && self.settings.target != BudgetTarget::None {
-            let st = &frame.stats;
-            eprintln!(
-                "DBGW {} wall {:.2} crowd {:.2} cloth {:.2} ev {} bones {} nodes {} units {:.0} bound {:.2}",
-                st.frame,
-                st.wall_ms,
-                st.crowd_ms,
-                st.cloth_ms,
-                st.evaluations,
-                st.bones_interpolated,
-                st.cloth_nodes,
-                st.cost_units,
-                st.error_bound_px
-            );
-        }
+        // What the budget's clock reads for this frame, ms.
+        let ms = match self.settings.clock {
+            FrameClock::Wall => frame.stats.wall_ms,
+            FrameClock::Modelled { ns_per_unit } => frame.stats.cost_units * ns_per_unit * 1e-6,
+        };
         let measured = match self.settings.target {
             BudgetTarget::None => None,
-            BudgetTarget::Milliseconds(ms) => Some((
-                match self.settings.clock {
-                    FrameClock::Wall => frame.stats.wall_ms,
-                    FrameClock::Modelled { ns_per_unit } => {
-                        frame.stats.cost_units * ns_per_unit * 1e-6
-                    }
-                },
-                ms as f64,
-            )),
-            BudgetTarget::CostUnits(u) => Some((frame.stats.cost_units, u)),
+            BudgetTarget::Milliseconds(target) => Some((ms, target as f64)),
+            BudgetTarget::CostUnits(target) => Some((frame.stats.cost_units, target)),
         };
         if frame.stats.cost_units > 0.0 {
             let r = frame.stats.wall_ms / frame.stats.cost_units;
@@ -530,10 +527,6 @@ impl FrameBudgeter {
         }
         if let Some((cost, target)) = measured {
             frame.stats.measured = cost;
-            let ms = match self.settings.clock {
-                FrameClock::Wall => frame.stats.wall_ms,
-                FrameClock::Modelled { ns_per_unit } => frame.stats.cost_units * ns_per_unit * 1e-6,
-            };
             let in_ms = matches!(self.settings.target, BudgetTarget::Milliseconds(_));
             let seen = FrameCost {
                 committed_units: frame.committed_units,
