@@ -12,7 +12,7 @@ use super::ids::{SlodClothId, SlodCrowdId};
 use super::result::{FfiError, SlodResult};
 use super::world::{SLOD_DESC_GUARD, SlodWorld, check_guard};
 use crate::world::{
-    BudgetShare, BudgetTarget, CostModel, ObjectKey, ObjectKind, WorldBudget, WorldError, pack,
+    BudgetShare, BudgetTarget, CostModel, ObjectKey, ObjectKind, WorldBudget, WorldError,
 };
 
 /// What a world frame may spend (values of `SlodWorldBudgetDesc::target_kind`).
@@ -230,17 +230,11 @@ pub(crate) fn world_error(e: WorldError) -> FfiError {
 }
 
 fn cloth_key(id: RawId) -> ObjectKey {
-    ObjectKey {
-        kind: ObjectKind::Cloth,
-        id: pack(id.index1, id.generation),
-    }
+    ObjectKey::new(ObjectKind::Cloth, id.index1, id.generation)
 }
 
 fn crowd_key(id: RawId) -> ObjectKey {
-    ObjectKey {
-        kind: ObjectKind::Crowd,
-        id: pack(id.index1, id.generation),
-    }
+    ObjectKey::new(ObjectKind::Crowd, id.index1, id.generation)
 }
 
 /// Forgets a destroyed object's share (called by the destroy functions).

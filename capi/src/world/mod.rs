@@ -40,28 +40,17 @@ pub struct ClothKey(Handle);
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct CrowdKey(Handle);
 
-/// Packs a handle into a budget key's number.
-pub(crate) fn pack(index: u32, generation: u32) -> u64 {
-    (generation as u64) << 32 | index as u64
-}
-
 impl ClothKey {
     /// The budget's key for this cloth.
     pub fn object(self) -> ObjectKey {
-        ObjectKey {
-            kind: ObjectKind::Cloth,
-            id: pack(self.0.index(), self.0.generation()),
-        }
+        ObjectKey::new(ObjectKind::Cloth, self.0.index(), self.0.generation())
     }
 }
 
 impl CrowdKey {
     /// The budget's key for this crowd.
     pub fn object(self) -> ObjectKey {
-        ObjectKey {
-            kind: ObjectKind::Crowd,
-            id: pack(self.0.index(), self.0.generation()),
-        }
+        ObjectKey::new(ObjectKind::Crowd, self.0.index(), self.0.generation())
     }
 }
 
@@ -140,9 +129,11 @@ impl World {
     /// Sets how an object takes part in the budget (refused for an object not in the world or
     /// an invalid weight; nothing changes then).
     pub fn set_share(&mut self, key: ObjectKey, share: BudgetShare) -> Result<(), WorldError> {
+        let (index, generation) = key.slot();
+        let handle = Handle::from_raw(index, generation);
         let live = match key.kind {
-            ObjectKind::Cloth => self.cloths.iter().any(|(h, _)| ClothKey(h).object() == key),
-            ObjectKind::Crowd => self.crowds.iter().any(|(h, _)| CrowdKey(h).object() == key),
+            ObjectKind::Cloth => self.cloths.contains(handle),
+            ObjectKind::Crowd => self.crowds.contains(handle),
         };
         if !live {
             return Err(WorldError::NoSuchObject);
