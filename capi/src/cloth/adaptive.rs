@@ -87,6 +87,18 @@ pub struct AdaptiveCloth {
 const OP_REFINE: u8 = 1;
 const OP_COARSE: u8 = 2;
 
+/// Whether `node`'s last operation (`last_op`: step and kind per node) was a refine or a
+/// coarse begun within [`UNDO_WINDOW_STEPS`] of step `now`: undoing it would count as flicker.
+fn recent_op(last_op: &[(u64, u8)], now: u64, node: NodeId) -> Recent {
+    let (when, kind) = last_op[node.index()];
+    match kind {
+        _ if now - when > UNDO_WINDOW_STEPS => Recent::No,
+        OP_REFINE => Recent::Refined,
+        OP_COARSE => Recent::Coarsened,
+        _ => Recent::No,
+    }
+}
+
 impl AdaptiveCloth {
     /// A cloth over `hierarchy` starting from `cut` (which must be a valid cut of it), with every
     /// node at rest. `rest_normal` orients the surface for the salience stage (any consistent
@@ -363,15 +375,7 @@ impl AdaptiveCloth {
             });
         };
         let (now, last_op) = (self.stats.steps, &self.last_op);
-        let recent = |n: NodeId| {
-            let (when, kind) = last_op[n.index()];
-            match kind {
-                _ if now - when > UNDO_WINDOW_STEPS => Recent::No,
-                OP_REFINE => Recent::Refined,
-                OP_COARSE => Recent::Coarsened,
-                _ => Recent::No,
-            }
-        };
+        let recent = |n: NodeId| recent_op(last_op, now, n);
         f.measure(
             &self.body,
             &mut self.node_normals,
@@ -418,16 +422,13 @@ impl AdaptiveCloth {
                 // the hysteresis does not filter: a node merged within the undo window ranks
                 // last for refining, and a parent refined within it is merged last.
                 let now = self.stats.steps;
-                let recent = |n: NodeId, kind: u8| {
-                    let (when, last) = self.last_op[n.index()];
-                    last == kind && now - when <= UNDO_WINDOW_STEPS
-                };
+                let recent = |n: NodeId| recent_op(&self.last_op, now, n);
                 for &n in active {
-                    if recent(n, OP_COARSE) {
+                    if recent(n) == Recent::Coarsened {
                         f.priorities[n.index()] = 0.0;
                     }
                     if let Some(p) = h.parent(n)
-                        && recent(p, OP_REFINE)
+                        && recent(p) == Recent::Refined
                     {
                         f.priorities[p.index()] = f32::MAX;
                     }
@@ -481,10 +482,7 @@ impl AdaptiveCloth {
             let now = self.stats.steps;
             let last_op = &self.last_op;
             self.ops.retain(|&op| match op {
-                Op::Refine(n) => {
-                    let (when, last) = last_op[n.index()];
-                    !(last == OP_COARSE && now - when <= UNDO_WINDOW_STEPS)
-                }
+                Op::Refine(n) => recent_op(last_op, now, n) != Recent::Coarsened,
                 Op::Coarse(_) => true,
             });
         }
