@@ -921,6 +921,12 @@ typedef struct SlodFeedbackDesc {
    * world's view).
    */
   uint32_t view_dependent;
+  /**
+   * Weight of the rim, in [0, 1e6] (default 3; 0 turns it off): nodes covering a vertex on
+   * the cloth's boundary get `1 + rim_weight` times their screen priority (a coarse rim
+   * changes the motion of the whole cloth).
+   */
+  float rim_weight;
 } SlodFeedbackDesc;
 
 /**

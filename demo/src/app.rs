@@ -412,10 +412,11 @@ fn summary(report: &Report<'_>, dir: &Path, files: &[String], total_s: f64) -> S
         t.row([
             "perception: feedback's on-screen rms below".to_string(),
             format!(
-                "uniform on {}, random on {}, camera_blind on {}, pin_aware on {} of {} scenes",
+                "uniform on {}, random on {}, camera_blind on {}, rim_blind on {}, pin_aware on {} of {} scenes",
                 beats("uniform"),
                 beats("random"),
                 beats("camera_blind"),
+                beats("rim_blind"),
                 beats("pin_aware"),
                 p.scenes.len()
             ),

@@ -714,8 +714,9 @@ fn random_call(rng: &mut Rng, m: &mut Model, other: &Model, assets: &Assets, ste
                 }
             }
             let mut null_desc = false;
+            d.rim_weight = rng.range(0.0, 5.0);
             let bad = if arg_fault {
-                match rng.below(8) {
+                match rng.below(9) {
                     0 => {
                         d.budget_kind = 3 + rng.below(100) as u32;
                         "desc.budget_kind"
@@ -744,6 +745,10 @@ fn random_call(rng: &mut Rng, m: &mut Model, other: &Model, assets: &Assets, ste
                     6 => {
                         d.parallel = 2;
                         "desc.parallel"
+                    }
+                    7 => {
+                        d.rim_weight = -1.0;
+                        "desc.rim_weight"
                     }
                     _ => {
                         null_desc = true;

@@ -18,6 +18,7 @@ mod grid;
 mod hierarchy;
 mod id;
 mod mesh;
+mod rim;
 
 pub use cut::Cut;
 pub use error::{BuildError, CutError, EvalError, InvariantError};
@@ -27,6 +28,7 @@ pub use grid::GridSpec;
 pub use hierarchy::Hierarchy;
 pub use id::{NodeId, NodeRange};
 pub use mesh::DEFAULT_AREAL_DENSITY;
+pub use rim::rim_vertices;
 
 #[cfg(test)]
 mod tests;

@@ -147,6 +147,10 @@ pub struct SlodFeedbackDesc {
     /// canonical face-on view instead (an ablation; the error-bound budget always uses the
     /// world's view).
     pub view_dependent: u32,
+    /// Weight of the rim, in [0, 1e6] (default 3; 0 turns it off): nodes covering a vertex on
+    /// the cloth's boundary get `1 + rim_weight` times their screen priority (a coarse rim
+    /// changes the motion of the whole cloth).
+    pub rim_weight: f32,
 }
 
 /// The default cloth: the paper's swinging net (65×65 vertices 2 m wide, 1 kg, horizontal in
@@ -210,6 +214,7 @@ pub extern "C" fn slod_default_feedback_desc() -> SlodFeedbackDesc {
         parallel: u32::from(f.parallel),
         motion_weight: f.motion_weight,
         view_dependent: u32::from(f.view_dependent),
+        rim_weight: f.rim_weight,
     }
 }
 
@@ -771,6 +776,7 @@ impl SlodFeedbackDesc {
         check_u32(self.parallel, 0, 1, "desc.parallel")?;
         in_range(self.motion_weight, 0.0, 1.0e6, "desc.motion_weight")?;
         check_u32(self.view_dependent, 0, 1, "desc.view_dependent")?;
+        in_range(self.rim_weight, 0.0, 1.0e6, "desc.rim_weight")?;
         let settings = FeedbackSettings {
             interval: self.interval,
             budget,
@@ -782,6 +788,7 @@ impl SlodFeedbackDesc {
             parallel: self.parallel == 1 && parallel_allowed,
             motion_weight: self.motion_weight,
             view_dependent: self.view_dependent == 1,
+            rim_weight: self.rim_weight,
             ..FeedbackSettings::default()
         };
         settings

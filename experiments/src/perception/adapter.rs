@@ -19,6 +19,14 @@ pub(crate) fn camera_blind(settings: FeedbackSettings) -> FeedbackSettings {
     }
 }
 
+/// `settings` without the rim weight (rim-blind).
+pub(crate) fn rim_blind(settings: FeedbackSettings) -> FeedbackSettings {
+    FeedbackSettings {
+        rim_weight: 0.0,
+        ..settings
+    }
+}
+
 /// `settings` in the error-bound mode at `bound_px`.
 pub(crate) fn error_bound(settings: FeedbackSettings, bound_px: f32) -> FeedbackSettings {
     FeedbackSettings {

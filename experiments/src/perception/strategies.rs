@@ -33,6 +33,9 @@ pub enum Strategy {
     /// The default loop without the view factors (facing, frustum, distance), priorities by
     /// world-space size instead of pixels.
     CameraBlind,
+    /// The default loop without the rim weight (`FeedbackSettings::rim_weight` 0): what
+    /// keeping the cloth's boundary fine buys.
+    RimBlind,
     /// A static cut with every region at about the same depth.
     Uniform,
     /// A static cut refined in a seeded random order.
@@ -46,12 +49,13 @@ pub enum Strategy {
 
 impl Strategy {
     /// Every strategy, in the order the report lists them.
-    pub const ALL: [Strategy; 9] = [
+    pub const ALL: [Strategy; 10] = [
         Strategy::Reference,
         Strategy::Feedback,
         Strategy::PaperMotionOnly,
         Strategy::StrainOnly,
         Strategy::CameraBlind,
+        Strategy::RimBlind,
         Strategy::Uniform,
         Strategy::Random,
         Strategy::PinAware,
@@ -59,7 +63,7 @@ impl Strategy {
     ];
 
     /// The name in the report: `reference`, `feedback`, `paper_motion_only`, `strain_only`,
-    /// `camera_blind`, `uniform`, `random`, `pin_aware` or `error_bound`.
+    /// `camera_blind`, `rim_blind`, `uniform`, `random`, `pin_aware` or `error_bound`.
     pub fn name(self) -> &'static str {
         match self {
             Strategy::Reference => "reference",
@@ -67,6 +71,7 @@ impl Strategy {
             Strategy::PaperMotionOnly => "paper_motion_only",
             Strategy::StrainOnly => "strain_only",
             Strategy::CameraBlind => "camera_blind",
+            Strategy::RimBlind => "rim_blind",
             Strategy::Uniform => "uniform",
             Strategy::Random => "random",
             Strategy::PinAware => "pin_aware",
@@ -100,6 +105,7 @@ impl Strategy {
             },
             Strategy::StrainOnly => adapter::strain_only(default),
             Strategy::CameraBlind => adapter::camera_blind(default),
+            Strategy::RimBlind => adapter::rim_blind(default),
             Strategy::ErrorBound => adapter::error_bound(default, bound_px),
         })
     }

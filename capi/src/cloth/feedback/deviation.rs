@@ -23,7 +23,10 @@
 //! view before a refine completes).
 //!
 //! Two more terms join it. *Stretch*: a node whose links are strained by `ε` on average spreads
-//! that stretch evenly over its region, misplacing it by about `ε · r`. *Latency*: the
+//! that stretch evenly over its region, misplacing it by about `ε · r`; on the rim (a node
+//! covering a boundary vertex) this term counts `1 + rim_weight` times, since a held sheet's
+//! stretch concentrates there and a coarse rim node moves the whole sheet (see
+//! `FeedbackSettings::rim_weight`). *Latency*: the
 //! neighbourhood's relative velocity across the ray, times the time the cut needs to respond
 //! (an evaluation interval plus a refine's blend), is deformation that will appear before a
 //! refine could show it; it is scaled like the bending residual.
@@ -54,6 +57,10 @@ pub(super) struct Frame<'a> {
     pub(super) view: &'a View,
     /// Weight of an error outside the view (the BSWDF's `outside_view_weight`).
     pub(super) outside_weight: f32,
+    /// Per hierarchy node: whether it is a refinable node on the rim (empty: none).
+    pub(super) rim: &'a [bool],
+    /// The stretch term of a rim node counts `1 + rim_weight` times.
+    pub(super) rim_weight: f32,
 }
 
 /// Reused buffers: a warm-start rotation per hierarchy node, and the last estimates.
@@ -109,6 +116,8 @@ impl Deviation {
             node_radius,
             view,
             outside_weight,
+            rim,
+            rim_weight,
         } = *frame;
         let h = body.hierarchy();
         let nodes = body.particle_nodes();
@@ -149,7 +158,12 @@ impl Deviation {
             // cut can respond, both scaled from the neighbourhood to the node's radius; plus
             // the stretch across the node (strain × radius), which a coarse node spreads evenly.
             let drift = across_ray(view, x_p, v_rel).length() * latency;
-            let world = (worst + drift) * (radius / spacing).powi(2) + strain * radius;
+            let stretch = if rim.get(node.index()) == Some(&true) {
+                1.0 + rim_weight
+            } else {
+                1.0
+            };
+            let world = (worst + drift) * (radius / spacing).powi(2) + stretch * strain * radius;
             let px = world
                 * view.pixels_per_unit(x_p)
                 * in_view_weight(view, x_p, radius, outside_weight);

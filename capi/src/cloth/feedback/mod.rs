@@ -77,6 +77,9 @@ pub(crate) struct Feedback {
     projected_nodes: Option<usize>,
     /// Measurements made so far.
     measurements: u64,
+    /// Per hierarchy node: whether it is not a leaf and covers a rim vertex (computed at the
+    /// first measurement; see [`FeedbackSettings::rim_weight`]).
+    rim: Vec<bool>,
 }
 
 impl Feedback {
@@ -116,6 +119,7 @@ impl Feedback {
             error_budget: None,
             projected_nodes: None,
             measurements: 0,
+            rim: Vec::new(),
         }
     }
 
@@ -230,9 +234,15 @@ impl Feedback {
             let positions = std::mem::take(&mut self.positions);
             let velocities = std::mem::take(&mut self.velocities);
             let blend = body.settings().blend_steps;
+            if self.settings.rim_weight > 0.0 && self.rim.len() != body.hierarchy().len() {
+                self.rim = rim_nodes(body.hierarchy());
+            }
+            let rim = std::mem::take(&mut self.rim);
             let frame = Frame {
                 positions: &positions,
                 velocities: &velocities,
+                rim: &rim,
+                rim_weight: self.settings.rim_weight,
                 latency: (self.settings.interval + blend) as f32 * dt,
                 node_radius,
                 view,
@@ -256,6 +266,7 @@ impl Feedback {
             }
             self.positions = positions;
             self.velocities = velocities;
+            self.rim = rim;
             if error_bound.is_some() {
                 return Ok(());
             }
@@ -274,6 +285,11 @@ impl Feedback {
             }
         }
         let screen = self.settings.priority != PriorityModel::Salience;
+        if screen && self.settings.rim_weight > 0.0 && self.rim.len() != h.len() {
+            self.rim = rim_nodes(h);
+        }
+        let rim_factor = 1.0 + self.settings.rim_weight;
+        let rim = &self.rim;
         for (i, &node) in nodes.iter().enumerate() {
             let s = self.salience[i];
             self.memory.store(node, s);
@@ -296,7 +312,12 @@ impl Feedback {
                     } else {
                         0.0
                     };
-                    s * px * r + dev
+                    let weight = if rim.get(n.index()) == Some(&true) {
+                        rim_factor
+                    } else {
+                        1.0
+                    };
+                    weight * (s * px * r + dev)
                 } else {
                     s
                 }
@@ -424,6 +445,17 @@ impl Feedback {
         }
         (budget.max(1) as usize, projected.max(1) as usize)
     }
+}
+
+/// Per hierarchy node: whether it can be refined and covers a vertex on the finest mesh's rim.
+fn rim_nodes(h: &treecut::Hierarchy) -> Vec<bool> {
+    let rim = treecut::rim_vertices(h);
+    (0..h.len())
+        .map(|i| {
+            let n = NodeId::new(i);
+            !h.is_leaf(n) && h.vertices(n).iter().any(|&v| rim[v as usize])
+        })
+        .collect()
 }
 
 /// The `camera_blind` ablation's view: the object seen face-on along its mean normal through a
