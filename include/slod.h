@@ -922,9 +922,10 @@ typedef struct SlodFeedbackDesc {
    */
   uint32_t view_dependent;
   /**
-   * Weight of the rim, in [0, 1e6] (default 3; 0 turns it off): nodes covering a vertex on
-   * the cloth's boundary get `1 + rim_weight` times their screen priority (a coarse rim
-   * changes the motion of the whole cloth).
+   * Weight of the rim, in [0, 1e6] (default 3; 0 turns it off): on nodes covering a vertex
+   * on the cloth's boundary the stretch term of the priority (and of the error-bound
+   * estimate) counts `1 + rim_weight` times (a coarse, strained rim changes the motion of the
+   * whole cloth).
    */
   float rim_weight;
 } SlodFeedbackDesc;

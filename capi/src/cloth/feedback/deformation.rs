@@ -16,6 +16,8 @@ use softbody::TreeCutSoftBody;
 pub(super) struct Strain {
     /// Per particle: summed weighted link strain and summed link weight.
     sums: Vec<(f32, f32)>,
+    /// Per particle: the term the last [`Strain::add_to`] added (`weight ×` mean strain).
+    pub(super) added: Vec<f32>,
 }
 
 impl Strain {
@@ -41,10 +43,11 @@ impl Strain {
                 self.sums[p].1 += l.weight;
             }
         }
+        self.added.clear();
         for (s, &(sum, w)) in salience.iter_mut().zip(&self.sums) {
-            if w > 0.0 {
-                *s += weight * (sum / w);
-            }
+            let term = if w > 0.0 { weight * (sum / w) } else { 0.0 };
+            *s += term;
+            self.added.push(term);
         }
     }
 }

@@ -217,6 +217,7 @@ impl Feedback {
             let w = self.settings.motion_weight;
             self.salience.iter_mut().for_each(|s| *s *= w);
         }
+        self.strain.added.clear();
         if self.settings.deformation_weight > 0.0 {
             self.strain.add_to(
                 body,
@@ -288,8 +289,9 @@ impl Feedback {
         if screen && self.settings.rim_weight > 0.0 && self.rim.len() != h.len() {
             self.rim = rim_nodes(h);
         }
-        let rim_factor = 1.0 + self.settings.rim_weight;
+        let rim_weight = self.settings.rim_weight;
         let rim = &self.rim;
+        let strain = &self.strain.added;
         for (i, &node) in nodes.iter().enumerate() {
             let s = self.salience[i];
             self.memory.store(node, s);
@@ -304,6 +306,8 @@ impl Feedback {
                 0.0
             };
             let r_own = node_radius[node.index()];
+            // On the rim the stretch term counts `1 + rim_weight` times.
+            let rim_extra = rim_weight * strain.get(i).copied().unwrap_or(0.0);
             let value = |n: NodeId| {
                 if screen {
                     let r = node_radius[n.index()];
@@ -312,12 +316,12 @@ impl Feedback {
                     } else {
                         0.0
                     };
-                    let weight = if rim.get(n.index()) == Some(&true) {
-                        rim_factor
+                    let s = if rim.get(n.index()) == Some(&true) {
+                        s + rim_extra
                     } else {
-                        1.0
+                        s
                     };
-                    weight * (s * px * r + dev)
+                    s * px * r + dev
                 } else {
                     s
                 }

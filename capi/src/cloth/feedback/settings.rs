@@ -97,26 +97,29 @@ pub struct FeedbackSettings {
     /// no effect. [`ClothBudget::MaxErrorPx`] always uses the frame's view: its bound is in its
     /// pixels.
     pub view_dependent: bool,
-    /// Weight of the rim (≥ 0; 0 turns it off; default 3): the screen priority of a node that
-    /// covers a vertex on the finest mesh's boundary (a free edge, a hole's outline, a pinned
-    /// border; [`treecut::rim_vertices`]) is multiplied by `1 + rim_weight`, so the loop keeps
-    /// the rim finer than the inside at equal salience; under [`ClothBudget::MaxErrorPx`] the stretch
-    /// term of a rim node's estimated error counts `1 + rim_weight` times. Not used by
+    /// Weight of the rim (≥ 0; 0 turns it off; default 3): on a node that covers a vertex on
+    /// the finest mesh's boundary (a free edge, a hole's outline, a pinned border;
+    /// [`treecut::rim_vertices`]) the stretch term counts `1 + rim_weight` times — the
+    /// deformation part of its salience under the screen priorities, the stretch part of its
+    /// estimate under [`ClothBudget::MaxErrorPx`]. So the loop keeps a *strained* rim finer
+    /// than the inside; a slack rim (a flag's free edge) gains little. Not used by
     /// [`PriorityModel::Salience`] (the paper's motion-only ranking).
     ///
     /// Why: a held sheet carries its load along its free edges and into its supports, where
     /// the stretch concentrates, and a coarse node there changes the motion of the *whole*
-    /// sheet, not only of its own region. Measured on the pinned net (65², 1080-px view, 30% of
-    /// the nodes, on-screen RMS): static cuts with the rim at the finest level and the inside
-    /// two levels coarser (22% of the nodes) 1.07 px, the rim one level coarse and the inside
-    /// one level coarse (24%) 9.49 px; a plain 33² grid against the 65² one 9.6 px, so the
-    /// coarse rim's lost stress concentration, not the quadtree's inset rim, is what drifts
-    /// (doubling the rim links' compliance or halving the rim's lumped mass did not help).
-    /// The feedback loop's RMS with weights 0 / 1 / 3 / 10: 1.77 / 1.63 / 0.89 / 0.91 px; the
-    /// view-dependent scenes gain as much (offscreen 3.99 → 1.74 px, dolly and orbit 2.25 →
-    /// 0.81; see the perception experiment's `rim_blind` runs), and the error bound at 1 px
-    /// with a few more nodes (offscreen 3.91 → 1.55 px, net max 35 → 14 px). A ratio of
-    /// priorities, so it does not depend on the scene's size or units.
+    /// sheet, not only of its own region. Measured on the pinned net (65², 1080-px view,
+    /// on-screen RMS over 200 steps): static cuts with the rim at the finest level and the
+    /// inside two levels coarser (22% of the nodes) 1.07 px, the rim and the inside one level
+    /// coarse (24%) 9.49 px; a plain 33² grid against the 65² one 9.6 px, so what drifts is the
+    /// coarse rim's lost stress concentration, not the quadtree's inset rim (doubling the rim
+    /// links' compliance or halving the rim's lumped mass did not help). The loop at 30% of
+    /// the nodes with weights 0 / 1 / 3 / 10: net 1.79 / 1.78 / 0.95 / 0.93 px, dolly and
+    /// orbit 2.21 / 1.19 / 0.88 / 0.86; offscreen 3.99 → 1.96 and the irregular mesh 5.85 →
+    /// 4.87 at 3. Its cost, on the chaotic scenes over 30-step horizons: flag 13.69 → 14.78,
+    /// curtain 9.84 → 10.68 px (their 1 µm twins drift 10.5 and 4.9 px); boosting the whole
+    /// priority instead of the stretch term gained 10% more on the held sheets and lost 40–55%
+    /// on those. A ratio of terms, so it does not depend on the scene's size or units; the
+    /// perception experiment's `rim_blind` runs measure it on every scene.
     pub rim_weight: f32,
     /// Split the salience evaluation over the rayon pool when there are enough nodes.
     pub parallel: bool,
