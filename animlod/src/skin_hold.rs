@@ -303,7 +303,9 @@ impl SkinHoldJob<'_> {
             any |= *r != 0;
         }
         if !any {
-            s.previous.copy_from_slice(palette);
+            if self.predict {
+                s.previous.copy_from_slice(palette);
+            }
             return Ok(SkinHoldStats::default());
         }
         s.dirty.fill(0);
@@ -328,7 +330,9 @@ impl SkinHoldJob<'_> {
                 stats.joints_refreshed += 1;
             }
         }
-        s.previous.copy_from_slice(palette);
+        if self.predict {
+            s.previous.copy_from_slice(palette);
+        }
         for (c, &d) in l.chunks.iter().zip(&s.dirty) {
             if d != 0 {
                 for v in c.start as usize..c.end as usize {
