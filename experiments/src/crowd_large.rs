@@ -831,4 +831,31 @@ mod tests {
             assert!(row.lod_skinned_fraction > 0.0 && row.lod_skinned_fraction < 0.8);
         }
     }
+
+    #[test]
+    fn held_joints_stay_within_the_bound_on_every_bundled_rig() {
+        for name in [
+            "Fox.glb",
+            "RobotExpressive.glb",
+            "Godot_PlatformerRobot.glb",
+            "SimpleSkin.gltf",
+        ] {
+            let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                .join("../assets/gltf")
+                .join(name);
+            let base = animlod::build::import_path(&path).unwrap();
+            // SimpleSkin's joints sit on one line with no height: kept at its own size.
+            let rig = Arc::new(metric_rig(&base).unwrap_or(base));
+            if rig.meshes().is_empty() || crate::crowd::playable_clips(&rig).is_empty() {
+                continue;
+            }
+            let mut setup = LargeSetup::new(16);
+            (setup.warmup_frames, setup.frames) = (2, 8);
+            setup.held_joints_px = Some(1.0);
+            let row = run_pipeline(&rig, &setup).unwrap();
+            println!("{name}: {row:?}");
+            assert!(row.max_error_px <= 1.001, "{name}: {row:?}");
+            assert!(row.lod_skinned_fraction < 1.0, "{name}: {row:?}");
+        }
+    }
 }
