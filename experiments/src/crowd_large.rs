@@ -55,7 +55,7 @@ pub struct LargeSetup {
     /// pixels at every vertex.
     pub held_joints_px: Option<f32>,
     /// With held joints: whether refreshed joints hold a matrix predicted ahead
-    /// ([`SkinHoldJob::predict`]; the default) or the exact one.
+    /// ([`SkinHoldJob::predict`]) or the exact one (the default).
     pub held_joints_predict: bool,
 }
 
@@ -73,7 +73,7 @@ impl LargeSetup {
             viewport_height: 1080,
             seed: 11,
             held_joints_px: None,
-            held_joints_predict: true,
+            held_joints_predict: false,
         }
     }
 
