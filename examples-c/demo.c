@@ -281,6 +281,20 @@ static int run_crowd(SlodWorld *world, const char *rig_path, unsigned characters
             for (size_t i = 0; i < got; ++i)
                 for (int k = 0; k < 3; ++k)
                     skinned_finite &= isfinite(pos[3 * i + k]) && isfinite(nrm[3 * i + k]) ? 1 : 0;
+            /* Skinning with held joints: the object keeps the output; each update skins again
+             * only vertices of joints that moved past 1 px there (the first skins them all). */
+            SlodHeldSkin *held = NULL;
+            size_t redone = 0;
+            float ppu = 0.0f;
+            CHECK(slod_held_skin_create(world, ids[0], 0, &held));
+            CHECK(slod_held_skin_update(world, ids[0], held, 1.0f, &redone));
+            CHECK(slod_character_pixels_per_unit(world, ids[0], &ppu));
+            skinned_finite &= redone == nv && ppu >= 0.0f;
+            CHECK(slod_held_skin_vertices(held, pos, nrm, nv, &got));
+            for (size_t i = 0; i < got; ++i)
+                for (int k = 0; k < 3; ++k)
+                    skinned_finite &= isfinite(pos[3 * i + k]) && isfinite(nrm[3 * i + k]) ? 1 : 0;
+            slod_held_skin_destroy(held);
             free(pos);
             free(nrm);
         }

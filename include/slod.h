@@ -449,6 +449,13 @@ typedef uint32_t SlodKeyUpdate;
 #endif // __cplusplus
 
 /**
+ * One character mesh's skinning with held joints: the layout of the mesh, the held palette,
+ * and the skinned positions and normals. Opaque to C; created by `slod_held_skin_create`,
+ * freed by `slod_held_skin_destroy`.
+ */
+typedef struct SlodHeldSkin SlodHeldSkin;
+
+/**
  * Everything a host created: cloths, rigs, crowds and characters. Opaque to C.
  *
  * Threads: a world is used from one thread at a time; functions taking `const SlodWorld*` may
@@ -2749,6 +2756,86 @@ SlodResult slod_character_set_rotation(struct SlodWorld *world,
 SlodResult slod_character_set_scale(struct SlodWorld *world,
                                     struct SlodCharacterId character,
                                     float scale);
+
+/**
+ * Writes the pixels per model unit at the nearest visible point of a character's bounds in the
+ * last advance (0 when it was out of view): a bound in pixels over it is a bound in model
+ * units anywhere on the character.
+ *
+ * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_pixels_per_unit` NULL or valid for a write.
+ */
+SlodResult slod_character_pixels_per_unit(const struct SlodWorld *world,
+                                          struct SlodCharacterId character,
+                                          float *out_pixels_per_unit);
+
+/**
+ * Creates the held skinning of mesh `mesh` of a character's rig and writes its owning pointer
+ * to `*out_held`. Its first `slod_held_skin_update` skins every vertex.
+ *
+ * Ownership: the host owns the object and frees it with `slod_held_skin_destroy` (it keeps
+ * its own reference to the rig, so it outlives the world's rig). It may be used with any
+ * character of the same rig. Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`,
+ * `SLOD_RESULT_INVALID_ARGUMENT` for a mesh index out of range (`slod_rig_mesh_count`).
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_held` NULL or valid for a write.
+ */
+SlodResult slod_held_skin_create(const struct SlodWorld *world,
+                                 struct SlodCharacterId character,
+                                 uint32_t mesh,
+                                 struct SlodHeldSkin **out_held);
+
+/**
+ * Skins a character's mesh with held joints: with this frame's exact palette of the character
+ * (its pose after the last advance), every joint whose held matrix moves some vertex of it
+ * more than `max_error_px` pixels (over `slod_character_pixels_per_unit`; a character out of
+ * view holds everything) is refreshed, and the vertices of those joints are skinned again.
+ * Every vertex then lies within `max_error_px` of exact skinning. Writes how many vertices
+ * were skinned to `*out_skinned` (0: the output from the last call stands, no copy needed).
+ *
+ * Threads: reads the world; mutates `held` only (distinct objects may be updated on distinct
+ * threads). Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT` for a character of
+ * another rig or a bound not finite or outside [0, 1e4] (nothing changed).
+ *
+ * # Safety
+ * `world` NULL or a live world; `held` NULL or a live object from `slod_held_skin_create`
+ * used by this thread only; `out_skinned` NULL or valid for a write.
+ */
+SlodResult slod_held_skin_update(const struct SlodWorld *world,
+                                 struct SlodCharacterId character,
+                                 struct SlodHeldSkin *held,
+                                 float max_error_px,
+                                 size_t *out_skinned);
+
+/**
+ * Copies a held skin's output positions and normals (3 floats each, x, y, z; skeleton model
+ * space) as of its last update.
+ *
+ * Buffer: copy-out counted in vertices, both buffers `cap` long (call with `cap` 0 to size
+ * them); nothing is written unless both fit. Threads: reads `held` only. Errors:
+ * `SLOD_RESULT_BUFFER_TOO_SMALL`.
+ *
+ * # Safety
+ * `held` NULL or a live object; `positions` and `normals` valid for `3 × cap` float writes
+ * each (NULL if `cap` is 0); `out_len` valid for a write.
+ */
+SlodResult slod_held_skin_vertices(const struct SlodHeldSkin *held,
+                                   float *positions,
+                                   float *normals,
+                                   size_t cap,
+                                   size_t *out_len);
+
+/**
+ * Frees a held skin. NULL is accepted and ignored.
+ *
+ * # Safety
+ * `held` NULL or a pointer from `slod_held_skin_create` not yet destroyed, used by no other
+ * thread.
+ */
+void slod_held_skin_destroy(struct SlodHeldSkin *held);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -23,7 +23,11 @@
 //!   says when a character's skinned output can be reused; [`Crowd::pose_error`] measures the
 //!   cost against full-rate evaluation at every joint's origin and tip ([`Skeleton::tip`]).
 //! - [`SkinningJob`] — CPU linear-blend skinning of a [`SkinnedMesh`] with a character's palette
-//!   ([`Crowd::skinning_matrices`]); [`SkinBlendJob`] blends two skinned key poses.
+//!   ([`Crowd::skinning_matrices`]); [`SkinBlendJob`] blends two skinned key poses;
+//!   [`SkinHoldJob`] skins with held joints: each joint keeps its matrix until it moves some
+//!   vertex of it past a bound (pixels over [`Crowd::pixels_per_unit`]), checked exactly at the
+//!   corners of the joint's vertex box every frame, and only the vertices of refreshed joints
+//!   are skinned again ([`SkinHoldLayout`] per mesh, [`HeldSkin`] per character and mesh).
 //!
 //! The thesis' crowd test and other experiments live in the `slod-experiments` crate.
 #![forbid(unsafe_code)]
@@ -42,6 +46,7 @@ mod rig;
 mod sampling;
 mod scheduler;
 mod skeleton;
+mod skin_hold;
 mod transform;
 
 pub use build::{ImportOptions, ImportReport};
@@ -56,4 +61,5 @@ pub use priority::{Factor, PriorityWeights};
 pub use rig::{Rig, Skin};
 pub use scheduler::SchedulerParams;
 pub use skeleton::{BoneDesc, MAX_BONES, Skeleton};
+pub use skin_hold::{HeldSkin, SkinHoldJob, SkinHoldLayout, SkinHoldStats};
 pub use transform::Transform;

@@ -19,8 +19,8 @@ use rayon::prelude::*;
 use salience::View;
 
 use animlod::{
-    BuildError, CharacterId, Crowd, CrowdError, ErrorSum, KeyUpdate, LodMode, Rig, SkinBlendJob,
-    SkinId, SkinningJob,
+    BuildError, CharacterId, Crowd, CrowdError, ErrorSum, HeldSkin, KeyUpdate, LodMode, Rig,
+    SkinBlendJob, SkinHoldJob, SkinHoldLayout, SkinId, SkinningJob,
 };
 
 use crate::crowd::rig_height;
@@ -50,6 +50,13 @@ pub struct LargeSetup {
     pub viewport_height: u32,
     /// Seed of positions, clips and phases.
     pub seed: u64,
+    /// Pipeline only: with `Some(px)`, the LOD side keeps exact poses (`lod` is ignored, the
+    /// crowd runs at full detail) and skins with held joints ([`SkinHoldJob`]) within `px`
+    /// pixels at every vertex.
+    pub held_joints_px: Option<f32>,
+    /// With held joints: whether refreshed joints hold a matrix predicted ahead
+    /// ([`SkinHoldJob::predict`]) or the exact one (the default).
+    pub held_joints_predict: bool,
 }
 
 impl LargeSetup {
@@ -65,6 +72,8 @@ impl LargeSetup {
             dt: 1.0 / 60.0,
             viewport_height: 1080,
             seed: 11,
+            held_joints_px: None,
+            held_joints_predict: false,
         }
     }
 
@@ -386,13 +395,17 @@ pub struct PipelineRow {
     pub full: Stages,
     /// With LOD: only key poses that changed are skinned; the output blends two skinned copies.
     pub lod: Stages,
-    /// Fraction of character-frames with LOD in which a key pose was skinned (the rest reused
-    /// or blended their copies).
+    /// Vertices skinned with LOD over vertices skinned at full detail (a skinned key pose
+    /// counts all its vertices; blends are not skinning).
     pub lod_skinned_fraction: f64,
-    /// Mean on-screen error (px) with LOD (bone tips).
+    /// Mean on-screen error (px) with LOD, at every skinned vertex in view against the
+    /// full-detail crowd's skinned vertex.
     pub mean_error_px: f32,
-    /// Largest on-screen error (px) with LOD.
+    /// Largest on-screen error (px) with LOD at a skinned vertex.
     pub max_error_px: f32,
+    /// Largest on-screen error (px) with LOD at bone origins and tips (the model matrices the
+    /// crowd hands out; 0 with held joints, whose poses are exact).
+    pub max_bone_tip_error_px: f32,
 }
 
 /// One character's skinned output on the host: the skinned key poses (`[from, to]`, positions
@@ -400,6 +413,26 @@ pub struct PipelineRow {
 struct HostSkin {
     keys: [(Vec<Vec3>, Vec<Vec3>); 2],
     out: (Vec<Vec3>, Vec<Vec3>),
+    /// Which buffer shows now: 0 or 1 a key copy, 2 `out`.
+    shown: usize,
+}
+
+impl HostSkin {
+    /// The skinned positions shown now.
+    fn positions(&self) -> &[Vec3] {
+        match self.shown {
+            0 | 1 => &self.keys[self.shown].0,
+            _ => &self.out.0,
+        }
+    }
+}
+
+/// The host side of skinning with held joints: one layout per mesh, one held state per
+/// character and mesh.
+struct HeldHost {
+    max_error_px: f32,
+    layouts: Vec<SkinHoldLayout>,
+    states: Vec<Vec<HeldSkin>>,
 }
 
 /// Skins every mesh of the rig into `out` (positions and normals, mesh after mesh), each with
@@ -459,7 +492,12 @@ struct PipelineRun {
     host: Vec<HostSkin>,
     palette: Vec<Mat4>,
     stages: Stages,
+    /// Vertices skinned in measured frames.
     skinned: u64,
+    /// Skinning with held joints (the LOD side of [`LargeSetup::held_joints_px`]).
+    held: Option<HeldHost>,
+    /// Whether a frame ran (the host skinned its first poses).
+    primed: bool,
 }
 
 impl PipelineRun {
@@ -468,6 +506,7 @@ impl PipelineRun {
         setup: &LargeSetup,
         lod: LodMode,
         keyed: bool,
+        held_px: Option<f32>,
     ) -> Result<Self, CrowdError> {
         let mut s = Sharded::new(rig, setup, lod)?;
         s.shards.iter_mut().for_each(|c| c.set_stage_timing(true));
@@ -479,11 +518,33 @@ impl PipelineRun {
                 .map(|_| HostSkin {
                     keys: [buffer(), buffer()],
                     out: buffer(),
+                    shown: 1,
                 })
                 .collect();
             (Vec::new(), host)
         } else {
             ((0..n).map(|_| buffer()).collect(), Vec::new())
+        };
+        let held = match held_px {
+            Some(max_error_px) => {
+                let layouts = rig
+                    .meshes()
+                    .iter()
+                    .map(|m| {
+                        let joints = rig.skin(m.skin).map_or(0, |s| s.joints.len());
+                        SkinHoldLayout::new(m, joints)
+                    })
+                    .collect::<Result<Vec<_>, _>>()?;
+                let states = (0..n)
+                    .map(|_| layouts.iter().map(HeldSkin::new).collect())
+                    .collect();
+                Some(HeldHost {
+                    max_error_px,
+                    layouts,
+                    states,
+                })
+            }
+            None => None,
         };
         Ok(PipelineRun {
             s,
@@ -493,6 +554,8 @@ impl PipelineRun {
             palette: Vec::new(),
             stages: Stages::default(),
             skinned: 0,
+            held,
+            primed: false,
         })
     }
 
@@ -508,14 +571,62 @@ impl PipelineRun {
         let (mut palette_s, mut skin_s, mut blend_s) = (0.0f64, 0.0f64, 0.0f64);
         let mut ci = 0;
         let palette = &mut self.palette;
+        let vertices: u64 = rig.meshes().iter().map(|m| m.vertex_count() as u64).sum();
         for (crowd, ids) in self.s.shards.iter_mut().zip(&self.s.ids) {
             st += crowd.advance(setup.dt, view)?;
             for &id in ids {
-                if self.keyed {
+                if let Some(held) = &mut self.held {
+                    // Exact palettes every frame; only vertices of joints that moved past the
+                    // bound are skinned again.
+                    let ppu = crowd.pixels_per_unit(id)?;
+                    let tolerance = if ppu > 0.0 {
+                        held.max_error_px / ppu
+                    } else {
+                        f32::INFINITY
+                    };
+                    let out = &mut self.out[ci];
+                    let mut at = 0;
+                    for ((mesh, layout), state) in rig
+                        .meshes()
+                        .iter()
+                        .zip(&held.layouts)
+                        .zip(&mut held.states[ci])
+                    {
+                        palette.resize(layout.joint_count(), Mat4::IDENTITY);
+                        let t0 = Instant::now();
+                        crowd.skinning_matrices(id, mesh.skin, palette)?;
+                        let t1 = Instant::now();
+                        let v = mesh.vertex_count();
+                        let done = SkinHoldJob {
+                            mesh,
+                            layout,
+                            palette,
+                            tolerance,
+                            predict: setup.held_joints_predict,
+                            state,
+                            positions: &mut out.0[at..at + v],
+                            normals: &mut out.1[at..at + v],
+                        }
+                        .run()?;
+                        palette_s += (t1 - t0).as_secs_f64();
+                        skin_s += t1.elapsed().as_secs_f64();
+                        if measured {
+                            self.skinned += done.vertices_skinned as u64;
+                        }
+                        at += v;
+                    }
+                } else if self.keyed {
                     let t0 = Instant::now();
                     let h = &mut self.host[ci];
                     let keys = crowd.key_poses(id)?;
-                    match keys.update {
+                    // The host skins both key poses of every character once before its first
+                    // frame (a `Restarted` before the first advance is not seen).
+                    let update = if self.primed {
+                        keys.update
+                    } else {
+                        KeyUpdate::Restarted
+                    };
+                    match update {
                         KeyUpdate::Unchanged => {}
                         KeyUpdate::Advanced => {
                             h.keys.swap(0, 1);
@@ -526,18 +637,31 @@ impl PipelineRun {
                             skin_key(rig, crowd, id, true, palette, &mut h.keys[1])?;
                         }
                     }
-                    self.skinned += (measured && keys.update != KeyUpdate::Unchanged) as u64;
+                    if measured {
+                        self.skinned += match update {
+                            KeyUpdate::Unchanged => 0,
+                            KeyUpdate::Advanced => vertices,
+                            KeyUpdate::Restarted => 2 * vertices,
+                        };
+                    }
                     let t1 = Instant::now();
-                    if crowd.pose_changed(id)? && keys.weight > 0.0 && keys.weight < 1.0 {
-                        let [a, b] = &h.keys;
-                        SkinBlendJob {
-                            from: (&a.0, &a.1),
-                            to: (&b.0, &b.1),
-                            weight: keys.weight,
-                            positions: &mut h.out.0,
-                            normals: &mut h.out.1,
-                        }
-                        .run()?;
+                    if crowd.pose_changed(id)? || update == KeyUpdate::Restarted {
+                        h.shown = if keys.weight <= 0.0 {
+                            0
+                        } else if keys.weight >= 1.0 {
+                            1
+                        } else {
+                            let [a, b] = &h.keys;
+                            SkinBlendJob {
+                                from: (&a.0, &a.1),
+                                to: (&b.0, &b.1),
+                                weight: keys.weight,
+                                positions: &mut h.out.0,
+                                normals: &mut h.out.1,
+                            }
+                            .run()?;
+                            2
+                        };
                     }
                     skin_s += t0.elapsed().as_secs_f64();
                     blend_s += t1.elapsed().as_secs_f64();
@@ -547,10 +671,14 @@ impl PipelineRun {
                     })?;
                     palette_s += p;
                     skin_s += k;
+                    if measured {
+                        self.skinned += vertices;
+                    }
                 }
                 ci += 1;
             }
         }
+        self.primed = true;
         if measured {
             let x = &mut self.stages;
             x.sample_ms += st.sample_ns as f64 * 1e-6;
@@ -560,6 +688,15 @@ impl PipelineRun {
             x.blend_ms += blend_s * 1e3;
         }
         Ok(())
+    }
+
+    /// Character `ci`'s skinned positions shown now (skeleton model space).
+    fn shown(&self, ci: usize) -> &[Vec3] {
+        if self.keyed && self.held.is_none() {
+            self.host[ci].positions()
+        } else {
+            &self.out[ci].0
+        }
     }
 
     /// The stage times per measured frame.
@@ -582,44 +719,59 @@ impl PipelineRun {
 /// keeps its skinned output per key pose ([`Crowd::key_poses`]): it skins only key poses that
 /// changed, blends the two skinned copies when the weight is strictly between 0 and 1 (at 0 or
 /// 1 a copy is the output), and reuses everything for a character whose pose did not change
-/// (palette time is part of `skin_ms` there; `palette_ms` counts LOD off's palettes). The
-/// error compares the two crowds' model matrices every measured frame (bone origins and tips).
+/// (palette time is part of `skin_ms` there; `palette_ms` counts LOD off's palettes). With
+/// [`LargeSetup::held_joints_px`] the LOD crowd keeps exact poses and the host skins with held
+/// joints ([`SkinHoldJob`]; palettes of every character every frame). The error compares the
+/// skinned vertices the two hosts show every measured frame (and, beside it, the crowds' model
+/// matrices at bone origins and tips).
 pub fn run_pipeline(rig: &Arc<Rig>, setup: &LargeSetup) -> Result<PipelineRow, CrowdError> {
     let view = setup.view()?;
     let vertices: usize = rig.meshes().iter().map(|m| m.vertex_count()).sum();
-    let mut full = PipelineRun::new(rig, setup, LodMode::Off, false)?;
-    let mut lod = PipelineRun::new(rig, setup, setup.lod, true)?;
-    let mut sum = ErrorSum::default();
+    let mut full = PipelineRun::new(rig, setup, LodMode::Off, false, None)?;
+    let (lod_mode, keyed) = match setup.held_joints_px {
+        Some(_) => (LodMode::Off, false),
+        None => (setup.lod, true),
+    };
+    let mut lod = PipelineRun::new(rig, setup, lod_mode, keyed, setup.held_joints_px)?;
+    let (mut sum, mut tips) = (ErrorSum::default(), ErrorSum::default());
     let sk = rig.skeleton();
     for frame in 0..setup.warmup_frames + setup.frames {
         let measured = frame >= setup.warmup_frames;
         full.frame(rig, setup, &view, measured)?;
         lod.frame(rig, setup, &view, measured)?;
         if measured {
+            let mut ci = 0;
             for s in 0..SHARDS {
                 let (a, b) = (&full.s.shards[s], &lod.s.shards[s]);
                 for (&x, &y) in full.s.ids[s].iter().zip(&lod.s.ids[s]) {
-                    sum.add_pose(
+                    let world = a.world_transform(x)?;
+                    tips.add_pose(
                         sk,
                         b.model_matrices(y)?,
                         a.model_matrices(x)?,
-                        &a.world_transform(x)?,
+                        &world,
                         &view,
                     );
+                    for (p, q) in lod.shown(ci).iter().zip(full.shown(ci)) {
+                        let (p, q) = (world.transform_point3(*p), world.transform_point3(*q));
+                        let seen = view.is_in_view(q, 0.0).then(|| view.pixels_per_unit(q));
+                        sum.add(p.distance(q), seen);
+                    }
+                    ci += 1;
                 }
             }
         }
     }
-    let e = sum.finish();
+    let (e, t) = (sum.finish(), tips.finish());
     Ok(PipelineRow {
         characters: setup.characters,
         vertices,
         full: full.per_frame(setup.frames),
         lod: lod.per_frame(setup.frames),
-        lod_skinned_fraction: lod.skinned as f64
-            / (setup.frames.max(1) * setup.characters.max(1)) as f64,
+        lod_skinned_fraction: lod.skinned as f64 / full.skinned.max(1) as f64,
         mean_error_px: e.mean_px,
         max_error_px: e.max_px,
+        max_bone_tip_error_px: t.max_px,
     })
 }
 
@@ -658,5 +810,52 @@ mod tests {
         assert!(f.sample_ms > 0.0 && f.concat_ms > 0.0 && f.palette_ms > 0.0 && f.skin_ms > 0.0);
         assert!(l.skin_ms > 0.0 && row.lod_skinned_fraction < 1.0, "{row:?}");
         assert!(row.max_error_px <= 1.1, "{row:?}");
+    }
+
+    #[test]
+    fn held_joints_stay_within_the_bound_at_every_skinned_vertex() {
+        let rig = gdbot();
+        let mut setup = LargeSetup::new(24);
+        (setup.warmup_frames, setup.frames) = (2, 8);
+        setup.held_joints_px = Some(1.0);
+        for predict in [false, true] {
+            setup.held_joints_predict = predict;
+            let row = run_pipeline(&rig, &setup).unwrap();
+            println!("{row:?}");
+            // The bound holds at every vertex (pixels per unit taken at the bounding sphere's
+            // nearest point, the vertex's own pixels per unit no larger).
+            assert!(row.max_error_px <= 1.001, "{row:?}");
+            assert!(row.mean_error_px > 0.0, "{row:?}");
+            // Poses are exact; only skinning holds, and it skips vertices.
+            assert_eq!(row.max_bone_tip_error_px, 0.0);
+            assert!(row.lod_skinned_fraction > 0.0 && row.lod_skinned_fraction < 0.8);
+        }
+    }
+
+    #[test]
+    fn held_joints_stay_within_the_bound_on_every_bundled_rig() {
+        for name in [
+            "Fox.glb",
+            "RobotExpressive.glb",
+            "Godot_PlatformerRobot.glb",
+            "SimpleSkin.gltf",
+        ] {
+            let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                .join("../assets/gltf")
+                .join(name);
+            let base = animlod::build::import_path(&path).unwrap();
+            // SimpleSkin's joints sit on one line with no height: kept at its own size.
+            let rig = Arc::new(metric_rig(&base).unwrap_or(base));
+            if rig.meshes().is_empty() || crate::crowd::playable_clips(&rig).is_empty() {
+                continue;
+            }
+            let mut setup = LargeSetup::new(16);
+            (setup.warmup_frames, setup.frames) = (2, 8);
+            setup.held_joints_px = Some(1.0);
+            let row = run_pipeline(&rig, &setup).unwrap();
+            println!("{name}: {row:?}");
+            assert!(row.max_error_px <= 1.001, "{name}: {row:?}");
+            assert!(row.lod_skinned_fraction < 1.0, "{name}: {row:?}");
+        }
     }
 }

@@ -271,6 +271,24 @@ void crowd_checks(slod::World &world, const char *rig_path) {
     EXPECT(slod_character_skinned_vertices(world.get(), chars[0], 0, pos.data(), nrm.data(), nv,
                                            &nv) == SLOD_RESULT_OK);
     for (size_t i = 0; i < 3 * nv; ++i) EXPECT(std::isfinite(pos[i]) && std::isfinite(nrm[i]));
+    // Held joints: the first update skins every vertex, and LOD off's pose equals it exactly.
+    {
+        SlodHeldSkin *held = nullptr;
+        EXPECT(slod_held_skin_create(world.get(), chars[0], 0, &held) == SLOD_RESULT_OK);
+        size_t redone = 0;
+        EXPECT(slod_held_skin_update(world.get(), chars[0], held, 1.0f, &redone) == SLOD_RESULT_OK);
+        EXPECT(redone == nv);
+        EXPECT(slod_held_skin_update(world.get(), chars[0], held, NAN, &redone) ==
+               SLOD_RESULT_INVALID_ARGUMENT);
+        std::vector<float> hpos(3 * nv), hnrm(3 * nv);
+        size_t hn = 0;
+        EXPECT(slod_held_skin_vertices(held, hpos.data(), hnrm.data(), nv, &hn) == SLOD_RESULT_OK);
+        EXPECT(hn == nv && hpos == pos);
+        float ppu = -1.0f;
+        EXPECT(slod_character_pixels_per_unit(world.get(), chars[0], &ppu) == SLOD_RESULT_OK);
+        EXPECT(ppu >= 0.0f);
+        slod_held_skin_destroy(held);
+    }
     SlodPoseError err{};
     EXPECT(slod_character_pose_error(world.get(), chars[0], &err) == SLOD_RESULT_OK);
     EXPECT(err.max_px == 0.0f); // LOD off: exact

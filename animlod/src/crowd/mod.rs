@@ -541,6 +541,15 @@ impl Crowd {
         Ok(self.chars[self.dense(id)?].omega)
     }
 
+    /// Pixels per model unit (skeleton model space, the character's scale included) at the
+    /// nearest visible point of the character's bounding sphere in the last
+    /// [`Crowd::advance`]'s view; 0 when the sphere was out of view or before any frame. A bound
+    /// in pixels over it is a bound in model units that holds anywhere on the character
+    /// (as [`crate::SkinHoldJob`]'s tolerance).
+    pub fn pixels_per_unit(&self, id: CharacterId) -> Result<f32, CrowdError> {
+        Ok(self.chars[self.dense(id)?].near_ppu)
+    }
+
     /// Sets the LOD mode (validated). A different mode starts from exact poses: every
     /// character is evaluated in full at its current time, so no hold carries over that the
     /// new mode has not accounted for (the error bound's drift, for one).

@@ -68,7 +68,7 @@ fn character_mut(
 }
 
 /// The crowd of a live character, read-only, with the character's in-crowd id.
-fn character_ref(
+pub(super) fn character_ref(
     world: &SlodWorld,
     id: SlodCharacterId,
 ) -> Result<(&Crowd, CharacterId), FfiError> {

@@ -8,8 +8,8 @@
 //! Files by subject: [`world`] (world, versions, desc guard), [`world_budget`] (the world
 //! step under one frame budget, per-object shares), [`view`] (camera, light),
 //! [`cloth`] and [`cloth_query`] (adaptive cloth), [`collider`] (colliders, wind, cloth worn
-//! by a character), [`rig`], [`crowd`] and [`character`]
-//! (animation), [`result`] (codes and the last error).
+//! by a character), [`rig`], [`crowd`], [`character`] and
+//! [`held_skin`] (animation), [`result`] (codes and the last error).
 
 // Declaration order is the order of the generated header: basics first, then cloth, then
 // animation (separate groups, so rustfmt keeps it).
@@ -36,6 +36,8 @@ pub mod crowd;
 
 pub mod character;
 
+pub mod held_skin;
+
 #[cfg(test)]
 mod defaults_tests;
 
@@ -50,6 +52,7 @@ pub use cloth::*;
 pub use cloth_query::*;
 pub use collider::*;
 pub use crowd::*;
+pub use held_skin::*;
 pub use ids::{SlodCharacterId, SlodClothId, SlodCrowdId, SlodRigId};
 pub use result::{SlodResult, slod_last_error, slod_result_str};
 pub use rig::*;
