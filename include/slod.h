@@ -436,7 +436,8 @@ enum SlodKeyUpdate
    */
   SLOD_KEY_UPDATE_ADVANCED = 1,
   /**
-   * Both key poses were evaluated anew: recompute both copies.
+   * Both key poses were evaluated anew: recompute both copies. The first advance after a
+   * character is added or the LOD mode changes always reports it.
    */
   SLOD_KEY_UPDATE_RESTARTED = 2,
 };

@@ -169,6 +169,51 @@ fn key_poses_blend_to_the_model_matrices_and_name_what_changed() {
     check_key_poses(LodMode::KeyHold { max_error_px: 1.0 });
 }
 
+/// A host that reads `KeyUpdate` only after each advance (as the C ABI documents) and starts
+/// with no copies gets its first key poses: the first advance after adding characters or
+/// changing the LOD mode reports `Restarted` (it used to report what the advance itself did,
+/// and such a host never skinned the reset poses: 732 px off at skinned vertices).
+#[test]
+fn the_first_advance_after_a_reset_reports_a_restart() {
+    for lod in [
+        LodMode::Interpolated { max_error_px: 1.0 },
+        LodMode::KeyHold { max_error_px: 1.0 },
+    ] {
+        let rig = Arc::new(crate::build::import_path(&asset("GDQuest_GDBot.glb")).unwrap());
+        let mut c = Crowd::new(rig.clone());
+        c.set_lod(lod).unwrap();
+        let id = c.add_character(Vec3::ZERO, ClipId::new(0)).unwrap();
+        let view = view_at(40.0);
+        let n = c.key_poses(id).unwrap().from.len();
+        let mut host = [vec![Mat4::ZERO; n], vec![Mat4::ZERO; n]];
+        for frame in 0..60 {
+            if frame == 30 {
+                // A mode change resets the key poses again.
+                c.set_lod(LodMode::Off).unwrap();
+                c.set_lod(lod).unwrap();
+            }
+            c.advance(1.0 / 60.0, &view).unwrap();
+            let k = c.key_poses(id).unwrap();
+            if frame == 0 || frame == 30 {
+                assert_eq!(k.update, KeyUpdate::Restarted, "{lod:?} frame {frame}");
+            }
+            match k.update {
+                KeyUpdate::Unchanged => {}
+                KeyUpdate::Advanced => {
+                    host.swap(0, 1);
+                    host[1] = k.to.to_vec();
+                }
+                KeyUpdate::Restarted => host = [k.from.to_vec(), k.to.to_vec()],
+            }
+            assert_eq!(
+                (&host[0][..], &host[1][..]),
+                (k.from, k.to),
+                "{lod:?} {frame}"
+            );
+        }
+    }
+}
+
 fn check_key_poses(lod: LodMode) {
     let rig = Arc::new(crate::build::import_path(&asset("GDQuest_GDBot.glb")).unwrap());
     let mut c = Crowd::new(rig.clone());

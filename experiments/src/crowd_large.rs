@@ -619,8 +619,8 @@ impl PipelineRun {
                     let t0 = Instant::now();
                     let h = &mut self.host[ci];
                     let keys = crowd.key_poses(id)?;
-                    // The host skins both key poses of every character once before its first
-                    // frame (a `Restarted` before the first advance is not seen).
+                    // The host skins both key poses of every character on its first frame (the
+                    // crowd's first advance after adding a character reports `Restarted` too).
                     let update = if self.primed {
                         keys.update
                     } else {

@@ -136,6 +136,7 @@ impl Crowd {
             let c = &mut self.chars[d];
             (c.key_from, c.key_to, c.key_error) = (c.time, c.time, 0.0);
             (c.stale, c.key_update, c.holding) = (false, KeyUpdate::Restarted, false);
+            c.reset_unreported = true;
         }
     }
 

@@ -88,6 +88,9 @@ impl Crowd {
                 } else {
                     advance_keyed_character(rig, max_error_px, c, lanes, s, timing)
                 };
+                if std::mem::take(&mut c.reset_unreported) {
+                    c.key_update = KeyUpdate::Restarted;
+                }
             }
             sum
         };

@@ -128,6 +128,10 @@ struct Character {
     stale: bool,
     /// What the last advance did to the key poses.
     key_update: KeyUpdate,
+    /// The key poses were reset (added, a LOD mode change) since the last keyed advance: that
+    /// advance reports [`KeyUpdate::Restarted`] whatever it did, since a host that reads the
+    /// update after each advance has no copies of the reset poses yet.
+    reset_unreported: bool,
     /// [`LodMode::Interpolated`]: holding the `to` pose past the interval's end.
     holding: bool,
 }
@@ -143,7 +147,9 @@ pub enum KeyUpdate {
     /// recompute `to`'s.
     Advanced,
     /// Both key poses were evaluated anew (first frame, a looping clip's wrap, a jump in time,
-    /// a mode change, a camera that came closer than the bound allows): recompute both.
+    /// a mode change, a camera that came closer than the bound allows): recompute both. The
+    /// first advance after a character is added or the LOD mode changes always reports it, so
+    /// a host that reads the update only after advances starts from the right copies.
     Restarted,
 }
 
@@ -379,6 +385,7 @@ impl Crowd {
             key_error: 0.0,
             stale: false,
             key_update: KeyUpdate::Restarted,
+            reset_unreported: true,
             holding: false,
         });
         let n = self.stride;

@@ -344,7 +344,8 @@ pub enum SlodKeyUpdate {
     /// The old later pose became the earlier one and a new later pose was evaluated: swap the
     /// host's two copies (skinned vertices or palettes) and recompute the later one.
     Advanced = 1,
-    /// Both key poses were evaluated anew: recompute both copies.
+    /// Both key poses were evaluated anew: recompute both copies. The first advance after a
+    /// character is added or the LOD mode changes always reports it.
     Restarted = 2,
 }
 
