@@ -147,6 +147,14 @@ impl Feedback {
         }
     }
 
+    /// Fills [`Feedback::rim`] for `h` once, when the rim weight is on (the rim is a property
+    /// of the hierarchy, which never changes).
+    fn refresh_rim(&mut self, h: &treecut::Hierarchy) {
+        if self.settings.rim_weight > 0.0 && self.rim.len() != h.len() {
+            self.rim = rim_nodes(h);
+        }
+    }
+
     /// Computes the BSWDF of every particle and from it the priority of every active node.
     ///
     /// During a coarse in flight the cut holds the (virtual) parent while the particles are its
@@ -235,9 +243,7 @@ impl Feedback {
             let positions = std::mem::take(&mut self.positions);
             let velocities = std::mem::take(&mut self.velocities);
             let blend = body.settings().blend_steps;
-            if self.settings.rim_weight > 0.0 && self.rim.len() != body.hierarchy().len() {
-                self.rim = rim_nodes(body.hierarchy());
-            }
+            self.refresh_rim(body.hierarchy());
             let rim = std::mem::take(&mut self.rim);
             let frame = Frame {
                 positions: &positions,
@@ -286,8 +292,8 @@ impl Feedback {
             }
         }
         let screen = self.settings.priority != PriorityModel::Salience;
-        if screen && self.settings.rim_weight > 0.0 && self.rim.len() != h.len() {
-            self.rim = rim_nodes(h);
+        if screen {
+            self.refresh_rim(h);
         }
         let rim_weight = self.settings.rim_weight;
         let rim = &self.rim;

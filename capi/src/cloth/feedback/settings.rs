@@ -120,8 +120,9 @@ pub struct FeedbackSettings {
     /// priority instead of the stretch term gained 10% more on the held sheets and lost 40–55%
     /// on those. On the off-screen net the loop is bimodal at 3 (1.96–2.11 px or 4.6–4.7 px
     /// as the budget moves by 1–2%; 4.0–4.4 at 0); 10 holds 1.8–1.9 px at every budget
-    /// tried but costs the chaotic scenes 35–45% (flag 19.9, curtain 13.3 px), so 3 it is. A ratio of terms, so it does not depend on the scene's size or units; the
-    /// perception experiment's `rim_blind` runs measure it on every scene.
+    /// tried but costs the chaotic scenes 35–45% (flag 19.9, curtain 13.3 px), so 3 it is. A
+    /// ratio of terms, so it does not depend on the scene's size or units; the perception
+    /// experiment's `rim_blind` runs measure it on every scene.
     pub rim_weight: f32,
     /// Split the salience evaluation over the rayon pool when there are enough nodes.
     pub parallel: bool,
