@@ -615,6 +615,13 @@ typedef struct SlodWorldBudgetDesc {
    * How work is counted in cost units.
    */
   struct SlodCostModel cost;
+  /**
+   * After each phase of a frame, all worker threads but one spin up to this long, ms,
+   * waiting for the next phase instead of sleeping ([0, 1000]; 0 = never; default 1).
+   * Waking a sleeping thread can take milliseconds on a virtual machine; after the frame's
+   * last phase the spin lasts until the next `slod_world_step` or this limit.
+   */
+  float spin_wait_ms;
 } SlodWorldBudgetDesc;
 
 /**

@@ -1,13 +1,14 @@
 //! The closed loop's costs on the paper's 65×65 swinging net: one step of the full-resolution
 //! cloth, one step of the adaptive cloth at 75% and 30% (evaluation amortised over its
-//! interval), and one feedback evaluation on its own (salience, normals, evaluator, operations).
+//! interval), and one feedback evaluation on its own (salience, normals, evaluator, operations),
+//! by node budget and under a 1 px on-screen error bound.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use slod::cloth::{AdaptiveCloth, ClothBudget, FeedbackSettings};
 use slod_experiments::net::NetConfig;
 use softbody::TreeCutSettings;
 
-fn cloth(config: &NetConfig, compression: Option<f32>) -> AdaptiveCloth {
+fn cloth(config: &NetConfig, budget: Option<ClothBudget>) -> AdaptiveCloth {
     let spec = config.grid();
     let n = config.size;
     let mut c = AdaptiveCloth::grid(&spec, 0, TreeCutSettings::default()).unwrap();
@@ -16,9 +17,9 @@ fn cloth(config: &NetConfig, compression: Option<f32>) -> AdaptiveCloth {
             .pin_vertex(spec.vertex(i, j), spec.position(i, j))
             .unwrap();
     }
-    if let Some(f) = compression {
+    if let Some(budget) = budget {
         c.set_feedback(Some(FeedbackSettings {
-            budget: ClothBudget::Compression(f),
+            budget,
             ..config.feedback
         }))
         .unwrap();
@@ -38,17 +39,22 @@ fn bench(c: &mut Criterion) {
         ("feedback75", Some(0.75)),
         ("feedback30", Some(0.3)),
     ] {
-        let mut cl = cloth(&config, compression);
+        let mut cl = cloth(&config, compression.map(ClothBudget::Compression));
         g.bench_function(format!("step/{name}"), |b| {
             b.iter(|| cl.step(&config.view).unwrap());
         });
     }
     for compression in [1.0, 0.3] {
-        let mut cl = cloth(&config, Some(compression));
+        let mut cl = cloth(&config, Some(ClothBudget::Compression(compression)));
         g.bench_function(format!("evaluate/{}", (compression * 100.0) as u32), |b| {
             b.iter(|| cl.evaluate(&config.view).unwrap());
         });
     }
+    // The error-bound mode measures each node's on-screen deviation as well.
+    let mut cl = cloth(&config, Some(ClothBudget::MaxErrorPx(1.0)));
+    g.bench_function("evaluate/error1px", |b| {
+        b.iter(|| cl.evaluate(&config.view).unwrap());
+    });
     g.finish();
 }
 

@@ -104,6 +104,9 @@ pub(crate) struct WorldSection {
     pub(crate) undone_fraction: f64,
     /// Threads of the budgeted world.
     pub(crate) threads: usize,
+    /// How long its idle workers spin between phases and frames, ms
+    /// (`WorldBudget::spin_wait_ms`).
+    pub(crate) spin_wait_ms: f32,
     /// Full-detail frame on one thread over the frame on `parallel_threads` (null if unmeasured).
     pub(crate) parallel_speedup: Option<f64>,
     /// Threads of the speedup's parallel blocks.
@@ -194,6 +197,7 @@ pub(crate) fn run(plan: &WorldPlan, progress: Progress) -> Result<WorldOutcome, 
         p99_ms: b.p99_ms,
         undone_fraction: b.undone_fraction,
         threads: b.threads,
+        spin_wait_ms: c.spin_wait_ms,
         parallel_speedup: report.parallel_speedup,
         parallel_threads: report.parallel_threads,
         full_detail_ms_serial: report.reference_ms_serial,

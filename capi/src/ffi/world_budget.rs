@@ -141,6 +141,11 @@ pub struct SlodWorldBudgetDesc {
     pub max_cloth_steps: u32,
     /// How work is counted in cost units.
     pub cost: SlodCostModel,
+    /// After each phase of a frame, all worker threads but one spin up to this long, ms,
+    /// waiting for the next phase instead of sleeping ([0, 1000]; 0 = never; default 1).
+    /// Waking a sleeping thread can take milliseconds on a virtual machine; after the frame's
+    /// last phase the spin lasts until the next `slod_world_step` or this limit.
+    pub spin_wait_ms: f32,
 }
 
 /// The default world budget: no target (`SLOD_WORLD_BUDGET_KIND_NONE`), the Rust defaults for
@@ -165,6 +170,7 @@ pub extern "C" fn slod_default_world_budget_desc() -> SlodWorldBudgetDesc {
         max_change: d.max_change,
         max_cloth_steps: d.max_cloth_steps,
         cost: SlodCostModel::from_model(&d.cost),
+        spin_wait_ms: d.spin_wait_ms,
     }
 }
 
@@ -211,6 +217,7 @@ impl SlodWorldBudgetDesc {
             max_change: self.max_change,
             max_cloth_steps: self.max_cloth_steps,
             cost: self.cost.to_model(),
+            spin_wait_ms: self.spin_wait_ms,
             ..WorldBudget::default()
         };
         budget.validate().map_err(world_error)?;
@@ -574,6 +581,14 @@ mod tests {
                 },
                 SlodWorldBudgetDesc {
                     min_error_px: 0.0,
+                    ..good
+                },
+                SlodWorldBudgetDesc {
+                    spin_wait_ms: -1.0,
+                    ..good
+                },
+                SlodWorldBudgetDesc {
+                    spin_wait_ms: f32::INFINITY,
                     ..good
                 },
             ] {

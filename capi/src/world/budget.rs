@@ -188,6 +188,15 @@ pub struct WorldBudget {
     pub cost: CostModel,
     /// What a millisecond budget measures.
     pub clock: FrameClock,
+    /// After each phase of a frame (crowds, cloths), all worker threads but one spin for up
+    /// to this long, ms, waiting for the next phase instead of going to sleep ([0, 1000]; 0 =
+    /// never). Waking a sleeping worker took 1.6–2.6 ms at the 99th percentile on this
+    /// project's 2-core virtual machine, and a worker that starts a phase late leaves the frame
+    /// on fewer threads for that long (see `world::warm`). Between phases the spin ends within
+    /// microseconds; after a frame's last phase it lasts until the next world step or this
+    /// limit, burning up to this long of one core per frame (and holding pool threads the
+    /// host may want for other rayon work in that time). Only pools of ≥ 2 threads spin.
+    pub spin_wait_ms: f32,
 }
 
 impl Default for WorldBudget {
@@ -206,6 +215,7 @@ impl Default for WorldBudget {
             transition_share: 0.1,
             cost: CostModel::default(),
             clock: FrameClock::Wall,
+            spin_wait_ms: 1.0,
         }
     }
 }
@@ -253,6 +263,9 @@ impl WorldBudget {
         }
         if self.max_cloth_steps == 0 {
             return bad("max_cloth_steps", "must be >= 1");
+        }
+        if !(self.spin_wait_ms.is_finite() && (0.0..=1000.0).contains(&self.spin_wait_ms)) {
+            return bad("spin_wait_ms", "must be in [0, 1000]");
         }
         if let FrameClock::Modelled { ns_per_unit } = self.clock
             && !(ns_per_unit.is_finite() && ns_per_unit > 0.0)

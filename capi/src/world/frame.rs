@@ -14,7 +14,7 @@
 //! What runs on the threads is in [`super::jobs`].
 
 use std::collections::BTreeMap;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use salience::View;
 
@@ -23,6 +23,7 @@ use super::controller::{ErrorBoundController, FrameCost};
 use super::jobs::{
     ClothJob, CrowdJob, StepCost, apply_cloth_share, full_ratio, run_cloths, run_crowds,
 };
+use super::warm::KeepWarm;
 use crate::cloth::{AdaptiveCloth, FeedbackSettings};
 use animlod::{Crowd, LodMode};
 
@@ -176,6 +177,8 @@ pub struct FrameBudgeter {
     ms_per_unit: Option<f64>,
     last: WorldStepStats,
     last_objects: Vec<ObjectFrame>,
+    /// Spinning workers between phases and frames (`WorldBudget::spin_wait_ms`).
+    warm: KeepWarm,
 }
 
 impl FrameBudgeter {
@@ -191,6 +194,7 @@ impl FrameBudgeter {
             ms_per_unit: None,
             last: WorldStepStats::default(),
             last_objects: Vec::new(),
+            warm: KeepWarm::default(),
         })
     }
 
@@ -218,6 +222,7 @@ impl FrameBudgeter {
             self.controller = ErrorBoundController::new(&settings);
         }
         if let Some(p) = pool {
+            self.warm.release();
             self.pool = p;
         }
         self.settings = settings;
@@ -273,10 +278,28 @@ impl FrameBudgeter {
         self.settings.threads == 1
     }
 
+    /// Runs one phase of the frame on the frame's threads; spinning workers are released
+    /// before it and armed again after it (`WorldBudget::spin_wait_ms`).
     fn install<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
-        match &self.pool {
+        self.warm.release();
+        let r = match &self.pool {
             Some(p) => p.install(f),
             None => f(),
+        };
+        // Until the next phase every worker spins (the calling thread waits while a phase
+        // runs on the pool, and a worker asleep when a phase spawns its jobs starts late), but
+        // the calling thread itself where it is one of the current pool's workers.
+        let inside = self.pool.is_none() && rayon::current_thread_index().is_some();
+        let workers = self.threads() - inside as usize;
+        self.keep_warm(workers);
+        r
+    }
+
+    /// Arms `workers` spinners for `spin_wait_ms` (none when serial).
+    fn keep_warm(&self, workers: usize) {
+        if !self.serial() {
+            let limit = Duration::from_secs_f32(self.settings.spin_wait_ms * 1e-3);
+            self.warm.arm(self.pool.as_ref(), workers, limit);
         }
     }
 
@@ -511,6 +534,9 @@ impl FrameBudgeter {
     /// still advanced; the statistics are kept either way).
     pub fn end_frame(&mut self, mut frame: Frame) -> Result<WorldStepStats, WorldError> {
         frame.stats.wall_ms = frame.start.elapsed().as_secs_f64() * 1e3;
+        // Until the next frame all workers but one spin: the host's thread needs a core.
+        self.warm.release();
+        self.keep_warm(self.threads().saturating_sub(1));
         // What the budget's clock reads for this frame, ms.
         let ms = match self.settings.clock {
             FrameClock::Wall => frame.stats.wall_ms,

@@ -21,6 +21,7 @@ pub mod frame;
 mod jobs;
 #[cfg(test)]
 mod tests;
+mod warm;
 
 use salience::View;
 use slod_core::{Arena, Handle};

@@ -75,10 +75,15 @@ pub(super) struct Deviation {
     pub(super) particle_px: Vec<f32>,
 }
 
-/// The part of `v` across the ray from the eye through `at`.
+/// The unit ray from the eye through `at` (zero at the eye).
 #[inline]
-fn across_ray(view: &View, at: Vec3, v: Vec3) -> Vec3 {
-    let ray = (at - view.position()).normalize_or_zero();
+fn ray_through(view: &View, at: Vec3) -> Vec3 {
+    (at - view.position()).normalize_or_zero()
+}
+
+/// The part of `v` across `ray` (a unit vector or zero).
+#[inline]
+fn across_ray(ray: Vec3, v: Vec3) -> Vec3 {
     v - ray * v.dot(ray)
 }
 
@@ -147,17 +152,19 @@ impl Deviation {
             let v_rel = velocities[p] - v_mean / k;
             let r = rotation_of(&cov, self.rotations[node.index()]);
             self.rotations[node.index()] = r;
+            let ray = ray_through(view, x_p);
             let mut worst = 0f32;
             for &q in around {
                 let rest_q = h.rest_position(nodes[q as usize]);
                 let residual = (positions[q as usize] - x_p) - r * (rest_q - rest_p);
-                worst = worst.max(across_ray(view, x_p, residual).length());
+                worst = worst.max(across_ray(ray, residual).length_squared());
             }
+            let worst = worst.sqrt();
             let radius = node_radius[node.index()];
             // Bending the node cannot show, plus the relative motion that adds to it before the
             // cut can respond, both scaled from the neighbourhood to the node's radius; plus
             // the stretch across the node (strain × radius), which a coarse node spreads evenly.
-            let drift = across_ray(view, x_p, v_rel).length() * latency;
+            let drift = across_ray(ray, v_rel).length() * latency;
             let stretch = if rim.get(node.index()) == Some(&true) {
                 1.0 + rim_weight
             } else {

@@ -155,7 +155,9 @@ impl Feedback {
         }
     }
 
-    /// Computes the BSWDF of every particle and from it the priority of every active node.
+    /// Computes the BSWDF of every particle and from it the priority of every active node
+    /// (under [`ClothBudget::MaxErrorPx`] the on-screen deviation alone: no normals, BSWDF or
+    /// strain term, which that mode does not read).
     ///
     /// During a coarse in flight the cut holds the (virtual) parent while the particles are its
     /// children: the parent gets its children's largest priority, the same key the evaluator
@@ -187,6 +189,13 @@ impl Feedback {
         body.neighbour_csr(&mut self.offsets, &mut self.neighbours);
         let nbrs = Neighbours::new(&self.offsets, &self.neighbours, n)?;
         let nodes = body.particle_nodes();
+        if let ClothBudget::MaxErrorPx(bound) = self.settings.budget {
+            // Under an error bound the priorities are the on-screen deviation alone: the
+            // normals, the BSWDF and the strain term would be computed for nothing (they were:
+            // about half of each evaluation).
+            self.error_bound_measure(body, node_radius, view, dt, bound, recent);
+            return Ok(());
+        }
         self.hints.clear();
         self.hints
             .extend(nodes.iter().map(|&node| node_normals[node.index()]));
@@ -234,49 +243,13 @@ impl Feedback {
                 self.settings.deformation_weight,
             );
         }
-        let error_bound = match self.settings.budget {
-            ClothBudget::MaxErrorPx(bound) => Some(bound),
-            _ => None,
-        };
         let deviation = self.settings.priority == PriorityModel::ScreenDeviation;
-        if error_bound.is_some() || deviation {
-            let positions = std::mem::take(&mut self.positions);
-            let velocities = std::mem::take(&mut self.velocities);
-            let blend = body.settings().blend_steps;
-            self.refresh_rim(body.hierarchy());
-            let rim = std::mem::take(&mut self.rim);
-            let frame = Frame {
-                positions: &positions,
-                velocities: &velocities,
-                rim: &rim,
-                rim_weight: self.settings.rim_weight,
-                latency: (self.settings.interval + blend) as f32 * dt,
-                node_radius,
-                view,
-                outside_weight: self.settings.params.outside_view_weight,
-            };
-            let period = self.settings.interval as f32 * dt;
+        if deviation {
             let decay = self.settings.memory_decay(dt);
-            // Cold start: until the loop has watched the cloth for one memory period it has
-            // no history, and a cloth at rest (about to be released, or to be hit by wind)
-            // reads as one that can be merged; merges then wait.
-            let warm = self.measurements as f32 * period >= self.settings.memory_seconds;
-            self.measurements += 1;
-            if let Some(bound) = error_bound {
-                let (budget, projected) =
-                    self.error_priorities(body, &frame, bound, decay, warm, recent);
-                self.error_budget = Some(budget);
-                self.projected_nodes = Some(projected);
-            } else {
-                self.deviation
-                    .measure(body, &frame, (&self.offsets, &self.neighbours), decay);
-            }
-            self.positions = positions;
-            self.velocities = velocities;
-            self.rim = rim;
-            if error_bound.is_some() {
-                return Ok(());
-            }
+            self.with_frame(body, node_radius, view, dt, |f, body, frame| {
+                f.deviation
+                    .measure(body, frame, (&f.offsets, &f.neighbours), decay);
+            });
         }
         let cut = body.cut();
         let h = body.hierarchy();
@@ -348,6 +321,61 @@ impl Feedback {
             *slot = slot.max(value(parent));
         }
         Ok(())
+    }
+
+    /// Runs `run` with the [`Frame`] of the positions and velocities just gathered.
+    fn with_frame(
+        &mut self,
+        body: &TreeCutSoftBody,
+        node_radius: &[f32],
+        view: &View,
+        dt: f32,
+        run: impl FnOnce(&mut Feedback, &TreeCutSoftBody, &Frame<'_>),
+    ) {
+        let positions = std::mem::take(&mut self.positions);
+        let velocities = std::mem::take(&mut self.velocities);
+        let blend = body.settings().blend_steps;
+        self.refresh_rim(body.hierarchy());
+        let rim = std::mem::take(&mut self.rim);
+        let frame = Frame {
+            positions: &positions,
+            velocities: &velocities,
+            rim: &rim,
+            rim_weight: self.settings.rim_weight,
+            latency: (self.settings.interval + blend) as f32 * dt,
+            node_radius,
+            view,
+            outside_weight: self.settings.params.outside_view_weight,
+        };
+        run(self, body, &frame);
+        self.positions = positions;
+        self.velocities = velocities;
+        self.rim = rim;
+    }
+
+    /// The measurement under [`ClothBudget::MaxErrorPx`]: the on-screen deviation of every
+    /// particle, then the priorities, the node budget and the projection from it.
+    fn error_bound_measure(
+        &mut self,
+        body: &TreeCutSoftBody,
+        node_radius: &[f32],
+        view: &View,
+        dt: f32,
+        bound: f32,
+        recent: &dyn Fn(NodeId) -> Recent,
+    ) {
+        let period = self.settings.interval as f32 * dt;
+        let decay = self.settings.memory_decay(dt);
+        // Cold start: until the loop has watched the cloth for one memory period it has no
+        // history, and a cloth at rest (about to be released, or to be hit by wind) reads as
+        // one that can be merged; merges then wait.
+        let warm = self.measurements as f32 * period >= self.settings.memory_seconds;
+        self.measurements += 1;
+        self.with_frame(body, node_radius, view, dt, |f, body, frame| {
+            let (budget, projected) = f.error_priorities(body, frame, bound, decay, warm, recent);
+            f.error_budget = Some(budget);
+            f.projected_nodes = Some(projected);
+        });
     }
 
     /// [`ClothBudget::MaxErrorPx`]: priorities are estimated on-screen errors in pixels (a
