@@ -2,8 +2,9 @@
 //!
 //! A rayon worker that finds no work spins for some microseconds and then sleeps on a futex;
 //! the next job wakes it. On a virtual machine waking a sleeping thread whose virtual CPU went
-//! idle waits for the hypervisor: measured on this project's 2-core VM (a C program, a thread
-//! woken through a condition variable after 0.2–3 ms asleep), 21–78 µs at the median but
+//! idle waits for the hypervisor: measured on this project's 2-core VM (a thread woken through
+//! a condition variable after 0.2–3 ms asleep: `cargo run --release -p slod-experiments
+//! --example wake_latency`), 21–78 µs at the median but
 //! **1.6–2.6 ms at the 99th percentile and up to 3.8 ms** — most of a 4 ms frame. A world frame
 //! wakes the pool at least twice (the crowd phase, the cloth phase), and on the street scene
 //! one worker started the cloth phase 1.5–4.5 ms late in about one frame in eight, the
