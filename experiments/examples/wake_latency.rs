@@ -62,7 +62,10 @@ fn main() {
         .unwrap_or(300)
         .max(10);
     println!("wake latency of a sleeping thread, {rounds} rounds per gap (µs)");
-    println!("{:>8} {:>8} {:>8} {:>8} {:>8}", "gap ms", "p50", "p90", "p99", "max");
+    println!(
+        "{:>8} {:>8} {:>8} {:>8} {:>8}",
+        "gap ms", "p50", "p90", "p99", "max"
+    );
     for gap_ms in [0.2, 1.0, 3.0] {
         let v = latencies(Duration::from_secs_f64(gap_ms * 1e-3), rounds);
         let q = |p: f64| v[((v.len() - 1) as f64 * p).round() as usize];
