@@ -272,6 +272,25 @@ impl AdaptiveCloth {
         }
     }
 
+    /// [`AdaptiveCloth::set_error_bound_px`] for a bound a world budget moves every few frames:
+    /// merges also wait until merging stays under a quarter of the refine threshold
+    /// (`settings::SHARED_BOUND_MERGE`), so a bound moving back and forth does not merge and
+    /// refine the same nodes.
+    pub(crate) fn set_shared_error_bound_px(&mut self, px: f32) -> Result<(), ClothError> {
+        self.set_error_bound_px(px)?;
+        if let Some(f) = self.feedback.as_mut() {
+            f.merge_fraction = super::feedback::SHARED_BOUND_MERGE;
+        }
+        Ok(())
+    }
+
+    /// Whether the bound was last set by [`AdaptiveCloth::set_shared_error_bound_px`].
+    pub(crate) fn has_shared_bound(&self) -> bool {
+        self.feedback
+            .as_ref()
+            .is_some_and(|f| f.merge_fraction == super::feedback::SHARED_BOUND_MERGE)
+    }
+
     /// Offsets the steps at which the feedback stage runs: with interval `k` it runs at the
     /// steps `s` with `(s + phase) % k == 0` (0, the default: steps 0, k, 2k, ...). A world of
     /// many cloths gives them different phases so that their evaluations, which cost several

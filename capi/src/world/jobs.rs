@@ -127,8 +127,10 @@ pub(crate) fn apply_cloth_share(
             }))?;
         }
         (BudgetShare::FullDetail, _) => {}
-        (_, Some(b)) if current != Some(ClothBudget::MaxErrorPx(b)) => {
-            cloth.set_error_bound_px(b)?;
+        (_, Some(b))
+            if current != Some(ClothBudget::MaxErrorPx(b)) || !cloth.has_shared_bound() =>
+        {
+            cloth.set_shared_error_bound_px(b)?;
         }
         _ => {}
     }

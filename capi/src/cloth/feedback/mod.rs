@@ -23,8 +23,8 @@ use deformation::Strain;
 use deviation::{Deviation, Frame};
 use memory::Memory;
 pub(crate) use radii::node_radii;
-pub(crate) use settings::ERROR_BOUND_REFINE;
 pub use settings::{ClothBudget, FeedbackSettings, PriorityModel, compression_nodes};
+pub(crate) use settings::{ERROR_BOUND_REFINE, SHARED_BOUND_MERGE};
 
 /// Whether a node's level changed within the undo window (see [`Feedback::measure`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -58,6 +58,10 @@ pub(crate) struct Feedback {
     pub(crate) settings: FeedbackSettings,
     pub(crate) evaluator: Evaluator,
     pub(crate) controller: Option<TimeController>,
+    /// Under [`ClothBudget::MaxErrorPx`] a parent merges when merging stays under this fraction
+    /// of the bound ([`settings::ERROR_BOUND_MERGE`]; [`settings::SHARED_BOUND_MERGE`] under a
+    /// world's moving bound).
+    pub(crate) merge_fraction: f32,
     positions: Vec<Vec3>,
     velocities: Vec<Vec3>,
     normals: Vec<Vec3>,
@@ -103,6 +107,7 @@ impl Feedback {
         };
         Feedback {
             evaluator: Evaluator::new(settings.evaluator_settings()),
+            merge_fraction: settings::ERROR_BOUND_MERGE,
             settings,
             controller,
             positions: Vec::new(),
@@ -381,7 +386,7 @@ impl Feedback {
     /// [`ClothBudget::MaxErrorPx`]: priorities are estimated on-screen errors in pixels (a
     /// simulated node's error if kept, a merge candidate's error if merged), and the node budget
     /// is the cut after refining every node above [`settings::ERROR_BOUND_REFINE`] of the bound
-    /// and merging every candidate under [`settings::ERROR_BOUND_MERGE`] of it; and the node
+    /// and merging every candidate under [`Feedback::merge_fraction`] of it; and the node
     /// count the cut will reach once refinement has run its course: a refined node's children
     /// are estimated again at the next measurement and may be refined in turn, so each refine
     /// candidate is projected down as many levels as its estimate stays above the refine
@@ -463,8 +468,7 @@ impl Feedback {
                     (rc > 0.0).then(|| self.deviation.particle_px[p.index()] * (rp / rc).powi(2))
                 })
                 .fold(0.0, f32::max);
-            let mergeable =
-                px < settings::ERROR_BOUND_MERGE * bound && cut.can_coarse(h, parent).is_ok();
+            let mergeable = px < self.merge_fraction * bound && cut.can_coarse(h, parent).is_ok();
             if !merges || recent(parent) == Recent::Refined {
                 // The evaluator merges only to make room, and there is room; a key above every
                 // refine candidate keeps swaps from merging too. A merge the residency only
