@@ -279,16 +279,21 @@ impl AdaptiveCloth {
     pub(crate) fn set_shared_error_bound_px(&mut self, px: f32) -> Result<(), ClothError> {
         self.set_error_bound_px(px)?;
         if let Some(f) = self.feedback.as_mut() {
-            f.merge_fraction = super::feedback::SHARED_BOUND_MERGE;
+            f.shared_bound = true;
         }
         Ok(())
     }
 
+    /// Back to a fixed bound's merge threshold (the cloth left a world's shared bound).
+    pub(crate) fn clear_shared_bound(&mut self) {
+        if let Some(f) = self.feedback.as_mut() {
+            f.shared_bound = false;
+        }
+    }
+
     /// Whether the bound was last set by [`AdaptiveCloth::set_shared_error_bound_px`].
     pub(crate) fn has_shared_bound(&self) -> bool {
-        self.feedback
-            .as_ref()
-            .is_some_and(|f| f.merge_fraction == super::feedback::SHARED_BOUND_MERGE)
+        self.feedback.as_ref().is_some_and(|f| f.shared_bound)
     }
 
     /// Offsets the steps at which the feedback stage runs: with interval `k` it runs at the

@@ -132,7 +132,9 @@ pub(crate) fn apply_cloth_share(
         {
             cloth.set_shared_error_bound_px(b)?;
         }
-        _ => {}
+        (_, Some(_)) => {}
+        // The cloth's own budget: a bound the host set stays where the host puts it.
+        (_, None) => cloth.clear_shared_bound(),
     }
     Ok(())
 }

@@ -23,8 +23,8 @@ use deformation::Strain;
 use deviation::{Deviation, Frame};
 use memory::Memory;
 pub(crate) use radii::node_radii;
+pub(crate) use settings::ERROR_BOUND_REFINE;
 pub use settings::{ClothBudget, FeedbackSettings, PriorityModel, compression_nodes};
-pub(crate) use settings::{ERROR_BOUND_REFINE, SHARED_BOUND_MERGE};
 
 /// Whether a node's level changed within the undo window (see [`Feedback::measure`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -58,10 +58,9 @@ pub(crate) struct Feedback {
     pub(crate) settings: FeedbackSettings,
     pub(crate) evaluator: Evaluator,
     pub(crate) controller: Option<TimeController>,
-    /// Under [`ClothBudget::MaxErrorPx`] a parent merges when merging stays under this fraction
-    /// of the bound ([`settings::ERROR_BOUND_MERGE`]; [`settings::SHARED_BOUND_MERGE`] under a
-    /// world's moving bound).
-    pub(crate) merge_fraction: f32,
+    /// Whether a world budget moves the bound of [`ClothBudget::MaxErrorPx`]: merges then wait
+    /// for [`settings::SHARED_BOUND_MERGE`] of the bound, else [`settings::ERROR_BOUND_MERGE`].
+    pub(crate) shared_bound: bool,
     positions: Vec<Vec3>,
     velocities: Vec<Vec3>,
     normals: Vec<Vec3>,
@@ -107,7 +106,7 @@ impl Feedback {
         };
         Feedback {
             evaluator: Evaluator::new(settings.evaluator_settings()),
-            merge_fraction: settings::ERROR_BOUND_MERGE,
+            shared_bound: false,
             settings,
             controller,
             positions: Vec::new(),
@@ -386,7 +385,7 @@ impl Feedback {
     /// [`ClothBudget::MaxErrorPx`]: priorities are estimated on-screen errors in pixels (a
     /// simulated node's error if kept, a merge candidate's error if merged), and the node budget
     /// is the cut after refining every node above [`settings::ERROR_BOUND_REFINE`] of the bound
-    /// and merging every candidate under [`Feedback::merge_fraction`] of it; and the node
+    /// and merging every candidate under the merge fraction of it (see [`Feedback::shared_bound`]); and the node
     /// count the cut will reach once refinement has run its course: a refined node's children
     /// are estimated again at the next measurement and may be refined in turn, so each refine
     /// candidate is projected down as many levels as its estimate stays above the refine
@@ -411,6 +410,11 @@ impl Feedback {
         let mut budget = cut.len() as i64;
         let mut projected = cut.len() as i64;
         let refine_above = settings::ERROR_BOUND_REFINE * bound;
+        let merge_fraction = if self.shared_bound {
+            settings::SHARED_BOUND_MERGE
+        } else {
+            settings::ERROR_BOUND_MERGE
+        };
         for (i, &node) in nodes.iter().enumerate() {
             let px = self.deviation.particle_px[i];
             if cut.is_on_cut(node) {
@@ -468,7 +472,7 @@ impl Feedback {
                     (rc > 0.0).then(|| self.deviation.particle_px[p.index()] * (rp / rc).powi(2))
                 })
                 .fold(0.0, f32::max);
-            let mergeable = px < self.merge_fraction * bound && cut.can_coarse(h, parent).is_ok();
+            let mergeable = px < merge_fraction * bound && cut.can_coarse(h, parent).is_ok();
             if !merges || recent(parent) == Recent::Refined {
                 // The evaluator merges only to make room, and there is room; a key above every
                 // refine candidate keeps swaps from merging too. A merge the residency only
