@@ -22,7 +22,11 @@ pub enum ClothBudget {
     /// An on-screen error bound in pixels of the frame's [`salience::View`] (> 0, finite): the
     /// loop spends the fewest nodes that keep every node's estimated on-screen deviation under
     /// it (see the `deviation` module: refine where a node's estimate exceeds half the bound,
-    /// merge where merging would stay under a quarter of it). The same meaning as the crowd's
+    /// merge where merging would stay under half of it too, so the cut it ends at does not
+    /// depend on where it started; under a world's moving bound merges wait for a quarter).
+    /// Start it at the finest cut: it then merges only where the error stays small (merges
+    /// wait one memory period), instead of refining out of a coarse start while the error
+    /// shows. The same meaning as the crowd's
     /// `LodMode::ErrorBound`: pixels a viewer could see, so a farther camera needs fewer nodes.
     /// The bound is on the estimate; the error measured against a full-resolution reference is
     /// reported by the experiments.
