@@ -6,7 +6,7 @@
 //! works for 3 ms (as a frame does). The helper stamps when it woke. Printed: percentiles of
 //! signal-to-wake latency for a few gaps. On a virtual machine a thread whose virtual CPU went
 //! idle waits for the hypervisor to run it again; on this project's 2-core VM the 99th
-//! percentile was 1.6–2.6 ms against a 21–78 µs median.
+//! percentile was 0.4–2.6 ms (runs on different days) against a 20–78 µs median.
 //!
 //! `cargo run --release -p slod-experiments --example wake_latency [-- ROUNDS]`
 

@@ -4,18 +4,20 @@
 //! the next job wakes it. On a virtual machine waking a sleeping thread whose virtual CPU went
 //! idle waits for the hypervisor: measured on this project's 2-core VM (a thread woken through
 //! a condition variable after 0.2–3 ms asleep: `cargo run --release -p slod-experiments
-//! --example wake_latency`), 21–78 µs at the median but
-//! **1.6–2.6 ms at the 99th percentile and up to 3.8 ms** — most of a 4 ms frame. A world frame
-//! wakes the pool at least twice (the crowd phase, the cloth phase), and on the street scene
-//! one worker started the cloth phase 1.5–4.5 ms late in about one frame in eight, the
-//! frame then ran on one thread for that long, and only 14–43% of frames stayed within ±10% of
-//! a 4 ms target (60–65% with the spinning below). Engines' job systems spin briefly before
-//! sleeping for the same reason.
+//! --example wake_latency`), 20–78 µs at the median but **0.4–2.6 ms at the 99th percentile
+//! and up to 3.8 ms** (runs on different days) — most of a 4 ms frame. A world frame wakes the
+//! pool at least twice (the crowd phase, the cloth phase), and on the street scene one worker
+//! started the cloth phase 1.5–4.5 ms late in about one frame in eight, the frame then ran on
+//! one thread for that long, and only 16–19% of frames stayed within ±10% of a 4 ms target
+//! (29–37% with a 1 ms spin, 52–73% with 10 ms, three interleaved runs each). Engines' job
+//! systems spin briefly before sleeping for the same reason.
 //!
-//! [`KeepWarm`] runs a spinning job on all workers but one (the thread that calls the next
-//! phase needs a core) after each phase and after each frame, until the next phase begins or a
-//! time limit passes. The spin costs a core for at most that limit per gap; between phases the
-//! gap is microseconds, after a frame it is the host's own time between world steps.
+//! [`KeepWarm`] runs spinning jobs on a pool until the next phase begins or a time limit
+//! passes: the frame budget arms every worker after a phase (the calling thread waits while a
+//! phase runs) and all but one after the frame (the host's thread needs a core; spinning all
+//! of them there measured worse, 50% against 61–77% within ±10%). The spin costs a core for at
+//! most that limit per gap; between phases the gap is microseconds, after a frame it is the
+//! host's own time between world steps.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
