@@ -616,8 +616,9 @@ typedef struct SlodWorldBudgetDesc {
    */
   struct SlodCostModel cost;
   /**
-   * After each phase of a frame, all worker threads but one spin up to this long, ms,
-   * waiting for the next phase instead of sleeping ([0, 1000]; 0 = never; default 1).
+   * After each phase of a frame the worker threads spin up to this long, ms, waiting for
+   * the next phase instead of sleeping (all of them between phases, all but one after the
+   * frame; [0, 1000]; 0 = never; default 1).
    * Waking a sleeping thread can take milliseconds on a virtual machine; after the frame's
    * last phase the spin lasts until the next `slod_world_step` or this limit.
    */

@@ -141,8 +141,9 @@ pub struct SlodWorldBudgetDesc {
     pub max_cloth_steps: u32,
     /// How work is counted in cost units.
     pub cost: SlodCostModel,
-    /// After each phase of a frame, all worker threads but one spin up to this long, ms,
-    /// waiting for the next phase instead of sleeping ([0, 1000]; 0 = never; default 1).
+    /// After each phase of a frame the worker threads spin up to this long, ms, waiting for
+    /// the next phase instead of sleeping (all of them between phases, all but one after the
+    /// frame; [0, 1000]; 0 = never; default 1).
     /// Waking a sleeping thread can take milliseconds on a virtual machine; after the frame's
     /// last phase the spin lasts until the next `slod_world_step` or this limit.
     pub spin_wait_ms: f32,

@@ -188,14 +188,15 @@ pub struct WorldBudget {
     pub cost: CostModel,
     /// What a millisecond budget measures.
     pub clock: FrameClock,
-    /// After each phase of a frame (crowds, cloths), all worker threads but one spin for up
-    /// to this long, ms, waiting for the next phase instead of going to sleep ([0, 1000]; 0 =
-    /// never). Waking a sleeping worker took 0.4–2.6 ms at the 99th percentile on this
-    /// project's 2-core virtual machine, and a worker that starts a phase late leaves the frame
-    /// on fewer threads for that long (see `world::warm`). Between phases the spin ends within
-    /// microseconds; after a frame's last phase it lasts until the next world step or this
-    /// limit, burning up to this long of one core per frame (and holding pool threads the
-    /// host may want for other rayon work in that time). Only pools of ≥ 2 threads spin.
+    /// After each phase of a frame (crowds, cloths) the frame's worker threads spin for up to this
+    /// long, ms, waiting for the next phase instead of going to sleep (all of them between phases,
+    /// all but one after the frame; [0, 1000]; 0 = never). Waking a sleeping worker took 0.4–2.6 ms
+    /// at the 99th percentile on this project's 2-core virtual machine, and a worker that starts a
+    /// phase late leaves the frame on fewer threads for that long (see `world::warm`). Between
+    /// phases the spin ends within microseconds; after a frame's last phase it lasts until the next
+    /// world step or this limit, burning up to this long of one core per frame (and holding pool
+    /// threads the host may want for other rayon work in that time). Only pools of ≥ 2 threads
+    /// spin.
     pub spin_wait_ms: f32,
 }
 

@@ -385,15 +385,15 @@ impl Feedback {
     /// [`ClothBudget::MaxErrorPx`]: priorities are estimated on-screen errors in pixels (a
     /// simulated node's error if kept, a merge candidate's error if merged), and the node budget
     /// is the cut after refining every node above [`settings::ERROR_BOUND_REFINE`] of the bound
-    /// and merging every candidate under the merge fraction of it (see [`Feedback::shared_bound`]); and the node
-    /// count the cut will reach once refinement has run its course: a refined node's children
-    /// are estimated again at the next measurement and may be refined in turn, so each refine
-    /// candidate is projected down as many levels as its estimate stays above the refine
-    /// threshold when halved per level. Halving, not the smooth-curvature model's quarter:
-    /// the drift and strain parts of the estimate scale with the radius, not its square, and a
-    /// projection that falls short makes a world budget overshoot (it did, by 35%), while one
-    /// that goes too far only settles from below as refinement ends. A world budget reads the
-    /// projection; the evaluator gets the one-level budget.
+    /// and merging every candidate under the merge fraction of it (see
+    /// [`Feedback::shared_bound`]); and the node count the cut will reach once refinement has
+    /// run its course: a refined node's children are estimated again at the next measurement
+    /// and may be refined in turn, so each refine candidate is projected down as many levels as
+    /// its estimate stays above the refine threshold when halved per level. Halving, not the
+    /// smooth-curvature model's quarter: the drift and strain parts of the estimate scale with the
+    /// radius, not its square, and a projection that falls short makes a world budget overshoot (it
+    /// did, by 35%), while one that goes too far only settles from below as refinement ends. A
+    /// world budget reads the projection; the evaluator gets the one-level budget.
     fn error_priorities(
         &mut self,
         body: &TreeCutSoftBody,
