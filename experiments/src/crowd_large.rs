@@ -12,7 +12,7 @@
 //! poses, which [`run_large`] checks.
 
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use glam::{Mat4, Vec3};
 use rayon::prelude::*;
@@ -120,6 +120,10 @@ pub struct LargeRow {
     pub lod_serial_ms: f64,
     /// Mean frame time with LOD on `threads` threads (ms).
     pub lod_parallel_ms: f64,
+    /// One-thread over `threads`-thread median frame time: on a shared virtual machine some
+    /// frames lose a core to the hypervisor for milliseconds (a run of frames then takes half
+    /// again as long), which the mean carries and the median does not.
+    pub parallel_speedup_median: f64,
     /// Mean on-screen error (px) over visible joints (origins and tips) and frames.
     pub mean_error_px: f32,
     /// Largest on-screen error (px).
@@ -267,6 +271,44 @@ impl Sharded {
     }
 }
 
+/// Frame times of a one-thread run and a parallel run advanced in lockstep (a frame of one,
+/// then the same frame of the other, so a change of machine load hits both alike).
+struct Lockstep {
+    serial_ms: f64,
+    parallel_ms: f64,
+    median_speedup: f64,
+}
+
+impl Lockstep {
+    /// Runs `frame` (returning the one-thread and the parallel frame's durations) for
+    /// `setup.warmup_frames + setup.frames` frames and keeps the measured ones.
+    fn run(
+        setup: &LargeSetup,
+        mut frame: impl FnMut() -> Result<(Duration, Duration), CrowdError>,
+    ) -> Result<Lockstep, CrowdError> {
+        let (mut serial, mut parallel) = (Vec::new(), Vec::new());
+        for f in 0..setup.warmup_frames + setup.frames {
+            let (s, p) = frame()?;
+            if f >= setup.warmup_frames {
+                serial.push(s.as_secs_f64() * 1e3);
+                parallel.push(p.as_secs_f64() * 1e3);
+            }
+        }
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+        let median = |v: &mut Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v.get(v.len() / 2).copied().unwrap_or(0.0)
+        };
+        let (serial_ms, parallel_ms) = (mean(&serial), mean(&parallel));
+        let (ms, mp) = (median(&mut serial), median(&mut parallel));
+        Ok(Lockstep {
+            serial_ms,
+            parallel_ms,
+            median_speedup: if mp > 0.0 { ms / mp } else { 0.0 },
+        })
+    }
+}
+
 fn pool(threads: usize) -> Result<rayon::ThreadPool, CrowdError> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -335,19 +377,13 @@ pub fn run_large(
     let many = pool(threads.max(1))?;
     let mut serial = Sharded::new(rig, setup, setup.lod)?;
     let mut parallel = Sharded::new(rig, setup, setup.lod)?;
-    let (mut ts, mut tp) = (0.0f64, 0.0f64);
-    for frame in 0..setup.warmup_frames + setup.frames {
+    let lockstep = Lockstep::run(setup, || {
         let t0 = Instant::now();
         one.install(|| serial.frame(setup.dt, &view, true))?;
         let t1 = Instant::now();
         many.install(|| parallel.frame(setup.dt, &view, true))?;
-        if frame >= setup.warmup_frames {
-            ts += (t1 - t0).as_secs_f64();
-            tp += t1.elapsed().as_secs_f64();
-        }
-    }
-    let frames = setup.frames.max(1) as f64;
-    let (lod_serial_ms, lod_parallel_ms) = (ts * 1e3 / frames, tp * 1e3 / frames);
+        Ok((t1 - t0, t1.elapsed()))
+    })?;
     let parallel_poses = parallel.poses();
     Ok(LargeRow {
         characters: setup.characters,
@@ -356,8 +392,9 @@ pub fn run_large(
         threads: threads.max(1),
         full_ms,
         lod_ms,
-        lod_serial_ms,
-        lod_parallel_ms,
+        lod_serial_ms: lockstep.serial_ms,
+        lod_parallel_ms: lockstep.parallel_ms,
+        parallel_speedup_median: lockstep.median_speedup,
         mean_error_px: sum.mean_px,
         max_error_px: sum.max_px,
         rms_error_px: sum.rms_px,
@@ -481,6 +518,68 @@ fn skin_key(
     Ok(())
 }
 
+/// What skinning with held joints needs besides the character: one layout per mesh, the
+/// on-screen bound and whether refreshed joints hold a predicted matrix.
+#[derive(Clone, Copy)]
+struct HeldSpec<'a> {
+    layouts: &'a [SkinHoldLayout],
+    max_error_px: f32,
+    predict: bool,
+}
+
+/// Skins every mesh of one character with held joints into `out` (positions and normals, mesh
+/// after mesh): exact palettes every frame, and only vertices of joints that moved past the
+/// bound at their vertices skinned again ([`SkinHoldJob`]). `states` holds one [`HeldSkin`] per
+/// mesh. Returns the seconds spent on palettes and on skinning, and the vertices skinned.
+fn skin_held(
+    rig: &Rig,
+    crowd: &Crowd,
+    id: CharacterId,
+    spec: HeldSpec<'_>,
+    states: &mut [HeldSkin],
+    palette: &mut Vec<Mat4>,
+    out: &mut (Vec<Vec3>, Vec<Vec3>),
+) -> Result<(f64, f64, u64), CrowdError> {
+    let ppu = crowd.pixels_per_unit(id)?;
+    let tolerance = if ppu > 0.0 {
+        spec.max_error_px / ppu
+    } else {
+        f32::INFINITY
+    };
+    let (mut at, mut palette_s, mut skin_s, mut skinned) = (0, 0.0, 0.0, 0u64);
+    for ((mesh, layout), state) in rig.meshes().iter().zip(spec.layouts).zip(states) {
+        palette.resize(layout.joint_count(), Mat4::IDENTITY);
+        let t0 = Instant::now();
+        crowd.skinning_matrices(id, mesh.skin, palette)?;
+        let t1 = Instant::now();
+        let v = mesh.vertex_count();
+        let done = SkinHoldJob {
+            mesh,
+            layout,
+            palette,
+            tolerance,
+            predict: spec.predict,
+            state,
+            positions: &mut out.0[at..at + v],
+            normals: &mut out.1[at..at + v],
+        }
+        .run()?;
+        palette_s += (t1 - t0).as_secs_f64();
+        skin_s += t1.elapsed().as_secs_f64();
+        skinned += done.vertices_skinned as u64;
+        at += v;
+    }
+    Ok((palette_s, skin_s, skinned))
+}
+
+/// The layouts of held-joint skinning, one per mesh of `rig`.
+fn held_layouts(rig: &Rig) -> Result<Vec<SkinHoldLayout>, CrowdError> {
+    rig.meshes()
+        .iter()
+        .map(|m| SkinHoldLayout::new(m, rig.skin(m.skin).map_or(0, |s| s.joints.len())))
+        .collect()
+}
+
 /// One LOD mode's side of the pipeline measurement: the crowd, the host's skinned output and
 /// the stage times so far.
 struct PipelineRun {
@@ -527,14 +626,7 @@ impl PipelineRun {
         };
         let held = match held_px {
             Some(max_error_px) => {
-                let layouts = rig
-                    .meshes()
-                    .iter()
-                    .map(|m| {
-                        let joints = rig.skin(m.skin).map_or(0, |s| s.joints.len());
-                        SkinHoldLayout::new(m, joints)
-                    })
-                    .collect::<Result<Vec<_>, _>>()?;
+                let layouts = held_layouts(rig)?;
                 let states = (0..n)
                     .map(|_| layouts.iter().map(HeldSkin::new).collect())
                     .collect();
@@ -576,44 +668,24 @@ impl PipelineRun {
             st += crowd.advance(setup.dt, view)?;
             for &id in ids {
                 if let Some(held) = &mut self.held {
-                    // Exact palettes every frame; only vertices of joints that moved past the
-                    // bound are skinned again.
-                    let ppu = crowd.pixels_per_unit(id)?;
-                    let tolerance = if ppu > 0.0 {
-                        held.max_error_px / ppu
-                    } else {
-                        f32::INFINITY
+                    let spec = HeldSpec {
+                        layouts: &held.layouts,
+                        max_error_px: held.max_error_px,
+                        predict: setup.held_joints_predict,
                     };
-                    let out = &mut self.out[ci];
-                    let mut at = 0;
-                    for ((mesh, layout), state) in rig
-                        .meshes()
-                        .iter()
-                        .zip(&held.layouts)
-                        .zip(&mut held.states[ci])
-                    {
-                        palette.resize(layout.joint_count(), Mat4::IDENTITY);
-                        let t0 = Instant::now();
-                        crowd.skinning_matrices(id, mesh.skin, palette)?;
-                        let t1 = Instant::now();
-                        let v = mesh.vertex_count();
-                        let done = SkinHoldJob {
-                            mesh,
-                            layout,
-                            palette,
-                            tolerance,
-                            predict: setup.held_joints_predict,
-                            state,
-                            positions: &mut out.0[at..at + v],
-                            normals: &mut out.1[at..at + v],
-                        }
-                        .run()?;
-                        palette_s += (t1 - t0).as_secs_f64();
-                        skin_s += t1.elapsed().as_secs_f64();
-                        if measured {
-                            self.skinned += done.vertices_skinned as u64;
-                        }
-                        at += v;
+                    let (p, k, done) = skin_held(
+                        rig,
+                        crowd,
+                        id,
+                        spec,
+                        &mut held.states[ci],
+                        palette,
+                        &mut self.out[ci],
+                    )?;
+                    palette_s += p;
+                    skin_s += k;
+                    if measured {
+                        self.skinned += done;
                     }
                 } else if self.keyed {
                     let t0 = Instant::now();
@@ -775,6 +847,204 @@ pub fn run_pipeline(rig: &Arc<Rig>, setup: &LargeSetup) -> Result<PipelineRow, C
     })
 }
 
+/// One character's host side of the whole pipeline: its shard and id, its skinned output
+/// (positions and normals of every mesh, one after the other) and its held state per mesh
+/// (held joints only).
+struct HostCharacter {
+    shard: usize,
+    id: CharacterId,
+    out: (Vec<Vec3>, Vec<Vec3>),
+    states: Vec<HeldSkin>,
+}
+
+/// The whole pipeline of a sharded crowd (sample, concatenate, palette, skin every character
+/// every frame), at full detail or skinned with held joints, on whichever threads the current
+/// pool has: the shards advance in parallel, then the characters are skinned in parallel (a
+/// finer grain than shards: near characters cost more to skin than far ones). A character's
+/// output depends only on its own shard's crowd and its own host state, so any thread count
+/// gives the same vertices.
+struct Whole {
+    s: Sharded,
+    chars: Vec<HostCharacter>,
+    layouts: Vec<SkinHoldLayout>,
+    /// Held joints within this many pixels; `None`: every vertex skinned every frame.
+    held_px: Option<f32>,
+    predict: bool,
+}
+
+impl Whole {
+    fn new(rig: &Arc<Rig>, setup: &LargeSetup, held_px: Option<f32>) -> Result<Whole, CrowdError> {
+        let s = Sharded::new(rig, setup, LodMode::Off)?;
+        let layouts = held_layouts(rig)?;
+        let vertices: usize = rig.meshes().iter().map(|m| m.vertex_count()).sum();
+        let mut chars = Vec::with_capacity(setup.characters);
+        for (shard, ids) in s.ids.iter().enumerate() {
+            for &id in ids {
+                chars.push(HostCharacter {
+                    shard,
+                    id,
+                    out: (vec![Vec3::ZERO; vertices], vec![Vec3::ZERO; vertices]),
+                    states: match held_px {
+                        Some(_) => layouts.iter().map(HeldSkin::new).collect(),
+                        None => Vec::new(),
+                    },
+                });
+            }
+        }
+        Ok(Whole {
+            s,
+            chars,
+            layouts,
+            held_px,
+            predict: setup.held_joints_predict,
+        })
+    }
+
+    /// One frame (in parallel on the current pool); returns the vertices skinned.
+    fn frame(&mut self, rig: &Rig, dt: f32, view: &View) -> Result<u64, CrowdError> {
+        self.s
+            .shards
+            .par_iter_mut()
+            .try_for_each(|crowd| crowd.advance(dt, view).map(|_| ()))?;
+        let spec = self.held_px.map(|max_error_px| HeldSpec {
+            layouts: &self.layouts,
+            max_error_px,
+            predict: self.predict,
+        });
+        let shards = &self.s.shards;
+        let done: Vec<Result<u64, CrowdError>> = self
+            .chars
+            .par_iter_mut()
+            .map_init(Vec::new, |palette, c| {
+                let crowd = &shards[c.shard];
+                Ok(match spec {
+                    Some(spec) => {
+                        skin_held(rig, crowd, c.id, spec, &mut c.states, palette, &mut c.out)?.2
+                    }
+                    None => {
+                        skin_meshes(rig, palette, &mut c.out, |skin, p| {
+                            crowd.skinning_matrices(c.id, skin, p)
+                        })?;
+                        c.out.0.len() as u64
+                    }
+                })
+            })
+            .collect();
+        done.into_iter().sum()
+    }
+
+    /// The on-screen error of this pipeline's skinned vertices against `reference`'s (same
+    /// setup), at every vertex in view (in parallel on the current pool).
+    fn error_against(&self, reference: &Whole, view: &View) -> Result<ErrorSum, CrowdError> {
+        let sums: Vec<Result<ErrorSum, CrowdError>> = self
+            .chars
+            .par_iter()
+            .zip(reference.chars.par_iter())
+            .map(|(a, b)| {
+                let mut sum = ErrorSum::default();
+                let world = reference.s.shards[b.shard].world_transform(b.id)?;
+                for (p, q) in a.out.0.iter().zip(&b.out.0) {
+                    let (p, q) = (world.transform_point3(*p), world.transform_point3(*q));
+                    let seen = view.is_in_view(q, 0.0).then(|| view.pixels_per_unit(q));
+                    sum.add(p.distance(q), seen);
+                }
+                Ok(sum)
+            })
+            .collect();
+        sums.into_iter().try_fold(ErrorSum::default(), |mut a, s| {
+            a.merge(&s?);
+            Ok(a)
+        })
+    }
+
+    /// Whether two pipelines' skinned outputs (positions and normals) are bit-identical.
+    fn same_output(&self, other: &Whole) -> bool {
+        let bits = |v: &[Vec3]| -> Vec<u32> {
+            v.iter()
+                .flat_map(|p| p.to_array().map(f32::to_bits))
+                .collect()
+        };
+        self.chars.len() == other.chars.len()
+            && self
+                .chars
+                .iter()
+                .zip(&other.chars)
+                .all(|(a, b)| bits(&a.out.0) == bits(&b.out.0) && bits(&a.out.1) == bits(&b.out.1))
+    }
+}
+
+/// The whole pipeline of a large crowd (sample, concatenate, palette and CPU-skin every
+/// character every frame; the host's cost, not only the animation's), skinned with held
+/// joints within `setup.held_joints_px` (required) against full detail: both on one thread in
+/// lockstep (times, and the error at every skinned vertex in view), then the held-joint
+/// pipeline alone on one thread and on `threads` threads in lockstep (the speed-up, and whether
+/// the two skinned every vertex bit-identically). `interpolated_fraction` is 1 (poses are
+/// exact); `changed_fraction` is the fraction of vertices skinned.
+pub fn run_pipeline_large(
+    rig: &Arc<Rig>,
+    setup: &LargeSetup,
+    threads: usize,
+) -> Result<LargeRow, CrowdError> {
+    let px = setup.held_joints_px.ok_or(CrowdError::InvalidArgument {
+        what: "held_joints_px",
+        reason: "the whole-pipeline measurement skins with held joints: give a bound",
+    })?;
+    let view = setup.view()?;
+    let (one, many) = (pool(1)?, pool(threads.max(1))?);
+    let frames = setup.frames.max(1) as f64;
+    let (full_ms, lod_ms, sum, skinned) = {
+        let mut full = Whole::new(rig, setup, None)?;
+        let mut lod = Whole::new(rig, setup, Some(px))?;
+        let (mut tf, mut tl, mut sum) = (0.0f64, 0.0f64, ErrorSum::default());
+        let (mut done, mut all) = (0u64, 0u64);
+        for frame in 0..setup.warmup_frames + setup.frames {
+            let t0 = Instant::now();
+            let f = one.install(|| full.frame(rig, setup.dt, &view))?;
+            let t1 = Instant::now();
+            let l = one.install(|| lod.frame(rig, setup.dt, &view))?;
+            let t2 = Instant::now();
+            if frame >= setup.warmup_frames {
+                tf += (t1 - t0).as_secs_f64();
+                tl += (t2 - t1).as_secs_f64();
+                (done, all) = (done + l, all + f);
+                sum.merge(&many.install(|| lod.error_against(&full, &view))?);
+            }
+        }
+        (
+            tf * 1e3 / frames,
+            tl * 1e3 / frames,
+            sum.finish(),
+            done as f64 / all.max(1) as f64,
+        )
+    };
+    let mut serial = Whole::new(rig, setup, Some(px))?;
+    let mut parallel = Whole::new(rig, setup, Some(px))?;
+    let lockstep = Lockstep::run(setup, || {
+        let t0 = Instant::now();
+        one.install(|| serial.frame(rig, setup.dt, &view))?;
+        let t1 = Instant::now();
+        many.install(|| parallel.frame(rig, setup.dt, &view))?;
+        Ok((t1 - t0, t1.elapsed()))
+    })?;
+    Ok(LargeRow {
+        characters: setup.characters,
+        near_m: setup.near_m,
+        far_m: setup.far_m,
+        threads: threads.max(1),
+        full_ms,
+        lod_ms,
+        lod_serial_ms: lockstep.serial_ms,
+        lod_parallel_ms: lockstep.parallel_ms,
+        parallel_speedup_median: lockstep.median_speedup,
+        mean_error_px: sum.mean_px,
+        max_error_px: sum.max_px,
+        rms_error_px: sum.rms_px,
+        interpolated_fraction: 1.0,
+        changed_fraction: skinned,
+        deterministic: serial.same_output(&parallel) && serial.s.poses() == parallel.s.poses(),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -857,5 +1127,25 @@ mod tests {
             assert!(row.max_error_px <= 1.001, "{name}: {row:?}");
             assert!(row.lod_skinned_fraction < 1.0, "{name}: {row:?}");
         }
+    }
+
+    #[test]
+    fn whole_pipeline_with_held_joints_is_deterministic_across_threads_and_within_the_bound() {
+        let rig = gdbot();
+        let mut setup = LargeSetup::new(48);
+        (setup.warmup_frames, setup.frames) = (2, 6);
+        setup.held_joints_px = Some(0.6);
+        let row = run_pipeline_large(&rig, &setup, 2).unwrap();
+        println!("{row:?} cost {:.2}", row.cost_ratio());
+        assert!(row.deterministic);
+        assert!(row.max_error_px <= 0.601, "{row:?}");
+        assert!(row.mean_error_px > 0.0, "{row:?}");
+        // Fewer vertices skinned than full detail's.
+        assert!(
+            row.changed_fraction > 0.0 && row.changed_fraction < 0.8,
+            "{row:?}"
+        );
+        setup.held_joints_px = None;
+        assert!(run_pipeline_large(&rig, &setup, 2).is_err());
     }
 }
