@@ -288,7 +288,10 @@ enum SlodLodMode
   SLOD_LOD_MODE_PIXEL_SIZE = 2,
   /**
    * A crowd-wide budget of `bone_updates_per_frame` bone interpolations per frame, spent where
-   * held bones have built up the most on-screen error.
+   * held bones have built up the most on-screen error. A character with at least a quarter
+   * of its animated bones admitted interpolates all of them (cheaper than picking them out)
+   * and counts a quarter; a budget that affords every character that way runs as LOD off
+   * (`SlodCrowdStats::budget_units`).
    */
   SLOD_LOD_MODE_BUDGET = 3,
   /**
@@ -1341,6 +1344,11 @@ typedef struct SlodCrowdStats {
    * Characters of which nothing interpolated (out of range, invisible or without budget).
    */
   uint32_t characters_frozen;
+  /**
+   * `SLOD_LOD_MODE_BUDGET`: budget units spent (never more than `bone_updates_per_frame`;
+   * `bones_interpolated` may be more), 0 in other modes.
+   */
+  uint64_t budget_units;
 } SlodCrowdStats;
 
 /**

@@ -362,30 +362,51 @@ fn a_rig_with_every_joint_at_one_point_still_animates() {
 
 #[test]
 fn a_budget_covering_every_bone_does_what_lod_off_does() {
-    // The budget mode never does more work than LOD off: a budget as large as the crowd's
-    // animated bones takes LOD off's path, pose for pose.
+    // The budget mode never does more work than LOD off: a budget that affords every
+    // character through the block path (a quarter of its animated bones each, rounded up)
+    // takes LOD off's path, pose for pose; one unit less picks bones and stays within it.
     let rig = Arc::new(crate::build::import_path(&asset("GDQuest_GDBot.glb")).unwrap());
     let clip = rig.clip_by_name("walk").unwrap();
     let animated = rig.clip(clip).unwrap().animated_bone_count() as u32;
-    let (mut off, mut budget) = (Crowd::new(rig.clone()), Crowd::new(rig.clone()));
-    budget
-        .set_lod(LodMode::Budget {
-            bone_updates_per_frame: 3 * animated,
-        })
-        .unwrap();
-    for c in [&mut off, &mut budget] {
+    let affords = 3 * animated.div_ceil(4);
+    let crowd = |lod: LodMode| {
+        let mut c = Crowd::new(rig.clone());
+        c.set_lod(lod).unwrap();
         for i in 0..3 {
             let id = c
                 .add_character(Vec3::new(i as f32, 0.0, 0.0), clip)
                 .unwrap();
             c.set_time(id, 0.1 * i as f32).unwrap();
         }
-    }
+        c
+    };
+    let budget_of = |n: u32| {
+        crowd(LodMode::Budget {
+            bone_updates_per_frame: n,
+        })
+    };
+    let (mut off, mut budget, mut short) = (
+        crowd(LodMode::Off),
+        budget_of(affords),
+        budget_of(affords - 1),
+    );
     let view = view_at(4.0);
-    for _ in 0..20 {
+    for frame in 0..20 {
         let a = off.advance(1.0 / 60.0, &view).unwrap();
         let b = budget.advance(1.0 / 60.0, &view).unwrap();
-        assert_eq!(a, b);
+        assert_eq!(b.budget_units, u64::from(affords));
+        assert_eq!(
+            a,
+            FrameStats {
+                budget_units: 0,
+                ..b
+            }
+        );
+        let s = short.advance(1.0 / 60.0, &view).unwrap();
+        assert!(s.budget_units < u64::from(affords), "{s:?}");
+        if frame > 0 {
+            assert!(s.bones_interpolated < a.bones_interpolated, "{s:?}");
+        }
     }
     for (a, b) in off.character_ids().zip(budget.character_ids()) {
         assert_eq!(

@@ -361,9 +361,12 @@ fn budget_caps_updates_and_favours_the_near_character() {
     let (mut near_err, mut far_err) = (ErrorSum::default(), ErrorSum::default());
     for frame in 0..120 {
         let st = c.advance(1.0 / 60.0, &cam).unwrap();
-        assert!(st.bones_interpolated <= budget as u64);
+        // The budget's units are never overspent; a character with a quarter of its bones
+        // admitted interpolates all of them and counts a quarter.
+        assert!(st.budget_units <= budget as u64, "{st:?}");
+        assert!(st.budget_units <= st.bones_interpolated, "{st:?}");
         if frame > 10 {
-            assert_eq!(st.bones_interpolated, budget as u64);
+            assert!(st.bones_interpolated >= budget as u64, "{st:?}");
             let (n, f) = (
                 c.pose_error(near, &cam).unwrap(),
                 c.pose_error(far, &cam).unwrap(),

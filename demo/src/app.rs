@@ -383,7 +383,11 @@ fn summary(report: &Report<'_>, dir: &Path, files: &[String], total_s: f64) -> S
             ),
             "issue 13: <= 0.33 at max <= 1 px, mean <= 0.1 px".to_string(),
         ]);
-        for r in crowd.large.iter().filter(|r| r.error_measure == "skinned_vertices") {
+        for r in crowd
+            .large
+            .iter()
+            .filter(|r| r.error_measure == "skinned_vertices")
+        {
             t.row([
                 format!(
                     "crowd: whole pipeline, {}, {} characters",
@@ -401,8 +405,7 @@ fn summary(report: &Report<'_>, dir: &Path, files: &[String], total_s: f64) -> S
                     opt(r.parallel_speedup_median, 2),
                     if r.deterministic { "yes" } else { "NO" }
                 ),
-                "issue 13: <= 0.33 at max <= 1 px, mean <= 0.1 px; >= 1.8x on 2 cores"
-                    .to_string(),
+                "issue 13: <= 0.33 at max <= 1 px, mean <= 0.1 px; >= 1.8x on 2 cores".to_string(),
             ]);
         }
     }

@@ -152,6 +152,9 @@ pub struct SweepRow {
     pub full_interpolated: f64,
     /// Mean bone interpolations per frame with LOD.
     pub lod_interpolated: f64,
+    /// Mean budget units spent per frame with LOD (budget mode; see
+    /// [`animlod::FrameStats::budget_units`]), 0 in other modes.
+    pub lod_budget_units: f64,
     /// Mean model-space concatenations per frame with LOD.
     pub lod_concatenated: f64,
     /// Mean number of characters with nothing interpolated per frame.
@@ -358,6 +361,7 @@ pub fn run(rig: &Arc<Rig>, cfg: &CrowdExperiment) -> Result<Vec<SweepRow>, Crowd
             row.visible += (sc.characters - sc.characters_frozen) as f64;
             row.full_interpolated += sf.bones_interpolated as f64;
             row.lod_interpolated += sl.bones_interpolated as f64;
+            row.lod_budget_units += sl.budget_units as f64;
             row.lod_concatenated += sl.bones_concatenated as f64;
             row.frozen += sl.characters_frozen as f64;
             for (&a, &b) in ids.iter().zip(&lod_ids) {
@@ -379,6 +383,7 @@ pub fn run(rig: &Arc<Rig>, cfg: &CrowdExperiment) -> Result<Vec<SweepRow>, Crowd
         row.visible /= frames;
         row.full_interpolated /= frames;
         row.lod_interpolated /= frames;
+        row.lod_budget_units /= frames;
         row.lod_concatenated /= frames;
         row.frozen /= frames;
         row.mean_ratio /= frames * ids.len().max(1) as f64;

@@ -105,11 +105,12 @@ pub(super) fn concat_moving(
 }
 
 impl Crowd {
-    /// Animated bones over every character (what LOD off interpolates per frame).
-    fn animated_total(&self) -> u64 {
+    /// The budget units LOD off's path costs: every character's animated bones through the
+    /// block path, half of them rounded up each (see [`FrameStats::budget_units`]).
+    fn full_detail_units(&self) -> u64 {
         self.chars
             .iter()
-            .map(|c| self.rig.clips()[c.clip.index()].animated.len() as u64)
+            .map(|c| block_units(self.rig.clips()[c.clip.index()].animated.len()))
             .sum()
     }
 
@@ -208,17 +209,26 @@ impl Crowd {
             self.last_stats = stats;
             return Ok(stats);
         }
+        let mut stats = FrameStats::default();
         let budget = match lod {
-            // A budget that covers every animated bone takes LOD off's path (one block pass per
-            // character, no scores): the budget mode never does more work than LOD off.
+            // A budget that affords every character through the block path takes LOD off's
+            // path (one block pass per character, no scores, no error): the budget mode does no
+            // more work than LOD off. Before this rule and the block path in budget mode, 100
+            // GDBot characters (153 bones) at budgets of 25%, 50% and 76% of the animated
+            // bones cost 1.03x, 1.28x and 1.53x of LOD off, picking bones out one by one.
             LodMode::Budget {
                 bone_updates_per_frame,
-            } if (bone_updates_per_frame as u64) < self.animated_total() => {
-                Some(self.budget_cut(bone_updates_per_frame))
+            } => {
+                let full = self.full_detail_units();
+                if (bone_updates_per_frame as u64) < full {
+                    Some(self.budget_cut(bone_updates_per_frame))
+                } else {
+                    stats.budget_units = full;
+                    None
+                }
             }
             _ => None,
         };
-        let mut stats = FrameStats::default();
         let mut partial_left = budget.map_or(0, |b| b.1);
         // Rotate the starting character each frame so that no character is always first to the
         // budget's last, partially admitted score bin.
@@ -300,6 +310,26 @@ impl Crowd {
         Ok(stats)
     }
 }
+
+/// Budget units of `slots` animated bones interpolated through the block path: a
+/// [`BLOCK_SHARE`]th of them, rounded up.
+fn block_units(slots: usize) -> u64 {
+    slots.div_ceil(BLOCK_SHARE) as u64
+}
+
+/// In budget mode a character with at least this fraction's inverse of its animated bones
+/// admitted takes the block path (every animated bone, sampled block by block and concatenated
+/// in one pass) and counts that fraction of them. The break-even depends on the rig (a picked
+/// bone re-concatenates its whole subtree), so the share is the conservative one of those
+/// measured with `cargo run --release -p slod-demo -- crowd --gltf RIG --budget N` (100
+/// characters grown to 153 bones; LOD cost over LOD off): with 2, GDBot's 50% budget cost
+/// 1.01-1.09x; with 3, Fox's 32% and Godot_PlatformerRobot's 28% cost 1.12-1.18x; with 4,
+/// GDBot and RobotExpressive stay at or under about 1.01x at every budget (GDBot 0.62x at 9%,
+/// 0.76x at 18%), Fox and Godot_PlatformerRobot under 1x up to 11-16% of their bones but
+/// 1.06-1.13x at 21-24%, where most characters take the block path and the scoring pass
+/// comes on top. A per-character cost model (the subtrees the picked bones dirty) would
+/// place the break-even per rig.
+const BLOCK_SHARE: usize = 4;
 
 /// Characters per parallel task (enough work per task to outweigh scheduling).
 const PARALLEL_CHUNK: usize = 32;
@@ -422,9 +452,20 @@ fn advance_character(
             return st;
         }
         // When most bones are due anyway, interpolating all of them through the contiguous
-        // block path costs less than picking them out one by one. Not in budget mode, whose
-        // count must stay within the budget.
-        if budget.is_none() && 2 * count >= slots {
+        // block path costs less than picking them out one by one. In budget mode from a
+        // quarter of them on, counted as a quarter (see `BLOCK_SHARE`).
+        let block = match budget {
+            Some(_) => count as u64 >= block_units(slots),
+            None => 2 * count >= slots,
+        };
+        if budget.is_some() {
+            st.budget_units = if block {
+                block_units(slots)
+            } else {
+                count as u64
+            };
+        }
+        if block {
             full = true;
             count = slots;
         }

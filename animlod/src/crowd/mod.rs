@@ -67,6 +67,14 @@ pub struct FrameStats {
     pub bones_blended: u64,
     /// [`LodMode::Interpolated`]: whole key poses evaluated (sampled and concatenated).
     pub key_poses: u64,
+    /// [`LodMode::Budget`]: the budget's units spent (never more than
+    /// `bone_updates_per_frame`): a bone picked out one by one counts 1; a character whose
+    /// admitted bones are at least a quarter of its animated bones interpolates all of them
+    /// through the contiguous block path and counts a quarter of them, rounded up; a budget
+    /// that affords every character that way takes LOD off's path and spends exactly that. 0
+    /// in other modes. `bones_interpolated` counts the bones actually interpolated, which may
+    /// be more.
+    pub budget_units: u64,
 }
 
 impl std::ops::AddAssign for FrameStats {
@@ -81,6 +89,7 @@ impl std::ops::AddAssign for FrameStats {
         self.concat_ns += o.concat_ns;
         self.bones_blended += o.bones_blended;
         self.key_poses += o.key_poses;
+        self.budget_units += o.budget_units;
     }
 }
 

@@ -24,7 +24,10 @@ pub enum SlodLodMode {
     /// `full_detail_px` and above, frozen below `freeze_below_px`.
     PixelSize = 2,
     /// A crowd-wide budget of `bone_updates_per_frame` bone interpolations per frame, spent where
-    /// held bones have built up the most on-screen error.
+    /// held bones have built up the most on-screen error. A character with at least a quarter
+    /// of its animated bones admitted interpolates all of them (cheaper than picking them out)
+    /// and counts a quarter; a budget that affords every character that way runs as LOD off
+    /// (`SlodCrowdStats::budget_units`).
     Budget = 3,
     /// Hold a bone only while its estimated on-screen drift stays under `max_error_px` pixels.
     ErrorBound = 4,
@@ -93,6 +96,9 @@ pub struct SlodCrowdStats {
     pub characters: u32,
     /// Characters of which nothing interpolated (out of range, invisible or without budget).
     pub characters_frozen: u32,
+    /// `SLOD_LOD_MODE_BUDGET`: budget units spent (never more than `bone_updates_per_frame`;
+    /// `bones_interpolated` may be more), 0 in other modes.
+    pub budget_units: u64,
 }
 
 /// The default LOD: `SLOD_LOD_MODE_OFF`, with the other modes' fields preset (range 5–50,
@@ -378,6 +384,7 @@ pub unsafe extern "C" fn slod_crowd_advance(
             bones_concatenated: s.bones_concatenated,
             characters: s.characters,
             characters_frozen: s.characters_frozen,
+            budget_units: s.budget_units,
         };
         // SAFETY: checked non-NULL; valid for a write per the caller contract.
         unsafe { write_out(out_stats, stats, "out_stats") }
