@@ -12,7 +12,7 @@
 //! poses, which [`run_large`] checks.
 
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use glam::{Mat4, Vec3};
 use rayon::prelude::*;
@@ -140,6 +140,33 @@ pub struct LargeRow {
 }
 
 impl LargeRow {
+    /// The row's times and error: `(full_ms, lod_ms)` of the one-thread lockstep with full
+    /// detail, the serial/parallel `lockstep`, the `error` over the measured frames (the
+    /// fractions and the determinism check are left at their defaults).
+    fn timed(
+        setup: &LargeSetup,
+        threads: usize,
+        (full_ms, lod_ms): (f64, f64),
+        lockstep: &Lockstep,
+        error: &animlod::PoseError,
+    ) -> LargeRow {
+        LargeRow {
+            characters: setup.characters,
+            near_m: setup.near_m,
+            far_m: setup.far_m,
+            threads: threads.max(1),
+            full_ms,
+            lod_ms,
+            lod_serial_ms: lockstep.serial_ms,
+            lod_parallel_ms: lockstep.parallel_ms,
+            parallel_speedup_median: lockstep.median_speedup,
+            mean_error_px: error.mean_px,
+            max_error_px: error.max_px,
+            rms_error_px: error.rms_px,
+            ..LargeRow::default()
+        }
+    }
+
     /// `lod_ms / full_ms`.
     pub fn cost_ratio(&self) -> f64 {
         if self.full_ms > 0.0 {
@@ -280,18 +307,24 @@ struct Lockstep {
 }
 
 impl Lockstep {
-    /// Runs `frame` (returning the one-thread and the parallel frame's durations) for
-    /// `setup.warmup_frames + setup.frames` frames and keeps the measured ones.
+    /// Runs `serial` on the one-thread pool `one` and then `parallel` on `many`, frame by frame,
+    /// for `setup.warmup_frames + setup.frames` frames, and keeps the measured ones.
     fn run(
         setup: &LargeSetup,
-        mut frame: impl FnMut() -> Result<(Duration, Duration), CrowdError>,
+        (one, many): (&rayon::ThreadPool, &rayon::ThreadPool),
+        mut serial: impl FnMut() -> Result<(), CrowdError> + Send,
+        mut parallel: impl FnMut() -> Result<(), CrowdError> + Send,
     ) -> Result<Lockstep, CrowdError> {
-        let (mut serial, mut parallel) = (Vec::new(), Vec::new());
+        let (mut serial_ms, mut parallel_ms) = (Vec::new(), Vec::new());
         for f in 0..setup.warmup_frames + setup.frames {
-            let (s, p) = frame()?;
+            let t0 = Instant::now();
+            one.install(&mut serial)?;
+            let t1 = Instant::now();
+            many.install(&mut parallel)?;
+            let (s, p) = (t1 - t0, t1.elapsed());
             if f >= setup.warmup_frames {
-                serial.push(s.as_secs_f64() * 1e3);
-                parallel.push(p.as_secs_f64() * 1e3);
+                serial_ms.push(s.as_secs_f64() * 1e3);
+                parallel_ms.push(p.as_secs_f64() * 1e3);
             }
         }
         let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
@@ -299,11 +332,11 @@ impl Lockstep {
             v.sort_by(f64::total_cmp);
             v.get(v.len() / 2).copied().unwrap_or(0.0)
         };
-        let (serial_ms, parallel_ms) = (mean(&serial), mean(&parallel));
-        let (ms, mp) = (median(&mut serial), median(&mut parallel));
+        let (serial_mean, parallel_mean) = (mean(&serial_ms), mean(&parallel_ms));
+        let (ms, mp) = (median(&mut serial_ms), median(&mut parallel_ms));
         Ok(Lockstep {
-            serial_ms,
-            parallel_ms,
+            serial_ms: serial_mean,
+            parallel_ms: parallel_mean,
             median_speedup: if mp > 0.0 { ms / mp } else { 0.0 },
         })
     }
@@ -377,30 +410,18 @@ pub fn run_large(
     let many = pool(threads.max(1))?;
     let mut serial = Sharded::new(rig, setup, setup.lod)?;
     let mut parallel = Sharded::new(rig, setup, setup.lod)?;
-    let lockstep = Lockstep::run(setup, || {
-        let t0 = Instant::now();
-        one.install(|| serial.frame(setup.dt, &view, true))?;
-        let t1 = Instant::now();
-        many.install(|| parallel.frame(setup.dt, &view, true))?;
-        Ok((t1 - t0, t1.elapsed()))
-    })?;
+    let lockstep = Lockstep::run(
+        setup,
+        (&one, &many),
+        || serial.frame(setup.dt, &view, true).map(|_| ()),
+        || parallel.frame(setup.dt, &view, true).map(|_| ()),
+    )?;
     let parallel_poses = parallel.poses();
     Ok(LargeRow {
-        characters: setup.characters,
-        near_m: setup.near_m,
-        far_m: setup.far_m,
-        threads: threads.max(1),
-        full_ms,
-        lod_ms,
-        lod_serial_ms: lockstep.serial_ms,
-        lod_parallel_ms: lockstep.parallel_ms,
-        parallel_speedup_median: lockstep.median_speedup,
-        mean_error_px: sum.mean_px,
-        max_error_px: sum.max_px,
-        rms_error_px: sum.rms_px,
         interpolated_fraction: spent,
         changed_fraction: changed,
         deterministic: poses == parallel_poses,
+        ..LargeRow::timed(setup, threads, (full_ms, lod_ms), &lockstep, &sum)
     })
 }
 
@@ -1019,29 +1040,17 @@ pub fn run_pipeline_large(
     };
     let mut serial = Whole::new(rig, setup, Some(px))?;
     let mut parallel = Whole::new(rig, setup, Some(px))?;
-    let lockstep = Lockstep::run(setup, || {
-        let t0 = Instant::now();
-        one.install(|| serial.frame(rig, setup.dt, &view))?;
-        let t1 = Instant::now();
-        many.install(|| parallel.frame(rig, setup.dt, &view))?;
-        Ok((t1 - t0, t1.elapsed()))
-    })?;
+    let lockstep = Lockstep::run(
+        setup,
+        (&one, &many),
+        || serial.frame(rig, setup.dt, &view).map(|_| ()),
+        || parallel.frame(rig, setup.dt, &view).map(|_| ()),
+    )?;
     Ok(LargeRow {
-        characters: setup.characters,
-        near_m: setup.near_m,
-        far_m: setup.far_m,
-        threads: threads.max(1),
-        full_ms,
-        lod_ms,
-        lod_serial_ms: lockstep.serial_ms,
-        lod_parallel_ms: lockstep.parallel_ms,
-        parallel_speedup_median: lockstep.median_speedup,
-        mean_error_px: sum.mean_px,
-        max_error_px: sum.max_px,
-        rms_error_px: sum.rms_px,
         interpolated_fraction: 1.0,
         changed_fraction: skinned,
         deterministic: serial.same_output(&parallel) && serial.s.poses() == parallel.s.poses(),
+        ..LargeRow::timed(setup, threads, (full_ms, lod_ms), &lockstep, &sum)
     })
 }
 
