@@ -294,11 +294,16 @@ fn summary(report: &Report<'_>, dir: &Path, files: &[String], total_s: f64) -> S
                     num(c.target_step_ms as f64, 3)
                 ),
                 format!(
-                    "{} ms mean, {} once settled ({}), {} nodes, rms error {}",
+                    "{} ms mean, {} once settled ({}; >= 95% of windows within 10% {}), {} \
+                     nodes, rms error {}",
                     num(r.ms_per_step, 3),
                     r.ms_per_step_settled.map_or("-".into(), |m| num(m, 3)),
                     r.settled_after_steps
                         .map_or("never within 10%".into(), |s| format!("from step {s}")),
+                    r.reached_after_steps.map_or("never".into(), |s| format!(
+                        "from step {s}: {}",
+                        pct(r.within_10pct_fraction.unwrap_or(0.0), 0)
+                    )),
                     num(r.nodes, 0),
                     pct(r.rms_error_fraction as f64, 2)
                 ),

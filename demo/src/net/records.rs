@@ -115,6 +115,13 @@ pub(crate) struct RunReport {
     /// Time-budget run only: mean ms per step from `settled_after_steps` on (over the second
     /// half of the run if it never settles).
     pub(crate) ms_per_step_settled: Option<f64>,
+    /// Time-budget run only: the world budget's settle criterion on the same windows — the
+    /// first step of a window within ±10% from which at least 95% of the windows are within
+    /// (null if none, or for other runs).
+    pub(crate) reached_after_steps: Option<u32>,
+    /// Time-budget run only: fraction of those windows within ±10% from `reached_after_steps`
+    /// on (over the whole run if never).
+    pub(crate) within_10pct_fraction: Option<f64>,
 }
 
 /// One line of Table 2: ours, the paper's or Bullet's (measured on this host).
@@ -262,5 +269,7 @@ pub(super) fn run_report(r: &NetRun, report: &NetReport, interval: u32) -> RunRe
         undone_operations: r.undone_operations,
         settled_after_steps: settling.and_then(|s| s.settled_at),
         ms_per_step_settled: settling.map(|s| s.mean_ms_after),
+        reached_after_steps: settling.and_then(|s| s.reached_at),
+        within_10pct_fraction: settling.map(|s| s.within_fraction),
     }
 }

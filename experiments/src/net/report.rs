@@ -68,6 +68,11 @@ pub struct Settling {
     pub settled_at: Option<u32>,
     /// Mean ms per step from `settled_at` on (or over the second half without settling).
     pub mean_ms_after: f64,
+    /// The world budget's criterion ([`crate::world::settle`]) on the same windows: the first
+    /// step of a window within ±10% from which at least 95% of windows are within (None: never).
+    pub reached_at: Option<u32>,
+    /// Fraction of windows within ±10% from `reached_at` on (over the whole run if never).
+    pub within_fraction: f64,
 }
 
 impl NetRun {
@@ -94,9 +99,12 @@ impl NetRun {
         } else {
             tail.iter().map(|&x| x as f64).sum::<f64>() / tail.len() as f64
         };
+        let world = crate::world::settle(&means, target_ms as f64);
         Settling {
             settled_at,
             mean_ms_after,
+            reached_at: world.settled_after.map(|w| (w * window) as u32),
+            within_fraction: world.within_fraction,
         }
     }
 }
