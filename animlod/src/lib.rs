@@ -12,7 +12,7 @@
 //!   [`Skin`]s and [`SkinnedMesh`]es, and one priority table per clip.
 //! - [`Crowd`] — characters sharing an `Arc<Rig>`; [`LodMode`] and the frame's
 //!   [`salience::View`] give each its camera ratio Ω; the scheduler turns priority × Ω into an
-//!   update period per bone (the thesis' reading), [`LodMode::Budget`] spends a fixed number of
+//!   update period per bone (the thesis' reading), [`LodMode::Budget`] spends a fixed budget of
 //!   interpolations per frame over the crowd, and [`LodMode::ErrorBound`] holds a bone only while
 //!   the drift of it and its held ancestors stays under a pixel bound, and
 //!   [`LodMode::Interpolated`] / [`LodMode::KeyHold`] evaluate whole key poses at intervals

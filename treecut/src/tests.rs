@@ -646,3 +646,78 @@ fn a_rule_that_locks_nothing_plans_as_evaluate() {
         }
     }
 }
+
+/// Two neighbours both worth a swap, the budget full: a batch for transitions merges a family
+/// for the first and refines it, but merges nothing for the second, which the first's refine
+/// locks (a merge for a refine that cannot begin would coarsen that family an interval early
+/// for nothing); without locks both swaps are planned.
+#[test]
+fn a_swap_does_not_merge_for_a_split_the_batch_locks() {
+    let h = Hierarchy::grid(&GridSpec::horizontal(17, 17, 1.0, 1.0)).unwrap();
+    let cut = Cut::uniform(&h, 1);
+    let (a, b) = cut
+        .active()
+        .iter()
+        .filter(|&&a| !h.is_leaf(a))
+        .find_map(|&a| {
+            let locks = sorted_locks(&h, &cut, Op::Refine(a));
+            let b = cut
+                .active()
+                .iter()
+                .copied()
+                .find(|&b| b != a && !h.is_leaf(b) && locks.contains(&b))?;
+            Some((a, b))
+        })
+        .unwrap();
+    // Two families to merge, touching neither a nor b nor each other.
+    let apart = |m: NodeId, x: NodeId| !touch(&h, m, x) && h.children(m).all(|k| !touch(&h, k, x));
+    let mut far: Vec<NodeId> = Vec::new();
+    for m in h.nodes_at_level(2) {
+        if far.len() < 2
+            && [a, b]
+                .iter()
+                .chain(&far)
+                .all(|&x| apart(m, x) && apart(x, m))
+        {
+            far.push(m);
+        }
+    }
+    assert_eq!(far.len(), 2);
+    let mut prio = vec![0.5f32; h.len()];
+    prio[a.index()] = 0.9;
+    prio[b.index()] = 0.8;
+    // Whichever merge key the settings use: the parent's or its children's.
+    for &m in &far {
+        prio[m.index()] = 0.1;
+        for k in h.children(m) {
+            prio[k.index()] = 0.1;
+        }
+    }
+    let budget = Budget::Nodes(cut.len());
+    let mut ev = Evaluator::new(EvaluatorSettings {
+        hysteresis: 0.45,
+        max_ops: 8,
+        ..Default::default()
+    });
+    let plain = ev.evaluate(&h, &cut, &prio, None, budget).unwrap().to_vec();
+    assert_eq!(
+        plain
+            .iter()
+            .filter(|op| matches!(op, Op::Coarse(_)))
+            .count(),
+        2,
+        "{plain:?}"
+    );
+    assert!(plain.contains(&Op::Refine(a)) && plain.contains(&Op::Refine(b)));
+    let rule = |op: Op, out: &mut Vec<NodeId>| neighbourhood_locks(&h, &cut, op, out);
+    let locked = ev
+        .evaluate_with_locks(&h, &cut, &prio, None, budget, &rule)
+        .unwrap()
+        .to_vec();
+    assert_eq!(locked.len(), 2, "{locked:?}");
+    assert!(
+        matches!(locked[0], Op::Coarse(m) if far.contains(&m)),
+        "{locked:?}"
+    );
+    assert_eq!(locked[1], Op::Refine(a));
+}
