@@ -223,6 +223,32 @@ static int run_crowd(SlodWorld *world, const char *rig_path, unsigned characters
                (double)interp / n, (double)held / n, (double)frozen / n, ms);
     }
 
+    /* A crowd-wide budget: the budget's units (a character interpolated whole through the
+     * block path counts a quarter of its bones) never exceed it; the bones interpolated may. */
+    {
+        SlodCamera cam = look_at(0.0f, info.bounds_center[1], 10.0f * rad, 0.0f,
+                                 info.bounds_center[1], -0.5f * depth);
+        CHECK(slod_world_set_camera(world, &cam));
+        SlodLodDesc lod = cd.lod;
+        lod.mode = SLOD_LOD_MODE_BUDGET;
+        lod.bone_updates_per_frame = 8u * (characters ? characters : 1u);
+        CHECK(slod_crowd_set_lod(world, crowd, &lod));
+        unsigned long long units = 0, interp = 0, over = 0;
+        for (unsigned f = 0; f < frames; ++f) {
+            SlodCrowdStats s;
+            CHECK(slod_crowd_advance(world, crowd, dt, &s));
+            units += s.budget_units;
+            interp += s.bones_interpolated;
+            over += s.budget_units > lod.bone_updates_per_frame;
+        }
+        const double n = frames ? (double)frames : 1.0;
+        printf("crowd budget %u units %.1f interpolated %.1f over %llu\n",
+               lod.bone_updates_per_frame, (double)units / n, (double)interp / n, over);
+        if (over) fail("budget overspent", SLOD_RESULT_INVALID_ARGUMENT);
+        lod.mode = SLOD_LOD_MODE_RANGE;
+        CHECK(slod_crowd_set_lod(world, crowd, &lod));
+    }
+
     /* Joint matrices of the first character, as a renderer would fetch them. */
     int finite = 1;
     if (characters > 0) {

@@ -138,6 +138,23 @@ fn c_demo_runs_the_net_and_the_crowd() {
             "every animated bone interpolates or holds: {crowd:?}"
         );
     }
+    // The budget mode: its units are never overspent, some bones interpolate, and the bones
+    // interpolated are at least the units spent (a whole character counts a quarter).
+    let budget_line = lines
+        .iter()
+        .find(|l| l.starts_with("crowd budget"))
+        .expect("budget line");
+    let (budget, units, interp, over): (f64, f64, f64, u64) = (
+        field(budget_line, "budget"),
+        field(budget_line, "units"),
+        field(budget_line, "interpolated"),
+        field(budget_line, "over"),
+    );
+    assert_eq!(over, 0, "{budget_line}");
+    assert!(
+        units > 0.0 && units <= budget && interp >= units,
+        "{budget_line}"
+    );
     let last = crowd.last().unwrap();
     assert_eq!(
         last.1, 0.0,
