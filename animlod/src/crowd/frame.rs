@@ -106,7 +106,8 @@ pub(super) fn concat_moving(
 
 impl Crowd {
     /// The budget units LOD off's path costs: every character's animated bones through the
-    /// block path, half of them rounded up each (see [`FrameStats::budget_units`]).
+    /// block path, a [`BLOCK_SHARE`]th of them rounded up each (see
+    /// [`FrameStats::budget_units`]).
     fn full_detail_units(&self) -> u64 {
         self.chars
             .iter()
