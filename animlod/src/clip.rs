@@ -606,7 +606,7 @@ impl Clip {
             if b.lanes.is_empty() {
                 b.sample(cur, &mut s.r);
             } else {
-                b.sample_compose(cur, &s.t, &s.s, locals);
+                b.sample_compose(cur, &s.t, &s.s, &mut s.lane_rotations, locals);
             }
         }
         compose_bones(&self.compose_rest, s, locals);

@@ -292,11 +292,16 @@ impl Block<Quat> {
         cur: Cursor,
         t: &[Vec3A],
         s: &[Vec3A],
+        rotations: &mut Vec<[Vec4; 4]>,
         locals: &mut [Affine3A],
     ) {
         debug_assert!(!self.lanes.is_empty());
         let n = self.bones.len();
-        for (g, q) in self.lane_groups(cur) {
+        // Two passes: every group's rotations first (independent vector chains whose square
+        // roots and divisions overlap), then the gathers, compositions and stores.
+        rotations.clear();
+        rotations.extend(self.lane_groups(cur).map(|(_, q)| q));
+        for (g, &q) in rotations.iter().enumerate() {
             let bones = &self.bones[4 * g..(4 * g + 4).min(n)];
             if let Ok(b) = <&[u32; 4]>::try_from(bones) {
                 // A whole group: fixed-size gathers and stores, no per-lane loop.
@@ -326,6 +331,8 @@ pub(crate) struct TrsScratch {
     pub(crate) t: Vec<Vec3A>,
     pub(crate) r: Vec<Quat>,
     pub(crate) s: Vec<Vec3A>,
+    /// Rotations of one linear block's lane groups (see [`Block::sample_compose`]).
+    pub(crate) lane_rotations: Vec<[Vec4; 4]>,
     /// Address of the clip whose base pose is loaded (0: none).
     loaded: usize,
 }
