@@ -224,7 +224,7 @@ static int run_crowd(SlodWorld *world, const char *rig_path, unsigned characters
     }
 
     /* A crowd-wide budget: the budget's units (a character interpolated whole through the
-     * block path counts a quarter of its bones) never exceed it; the bones interpolated may. */
+     * block path counts a sixth of its bones) never exceed it; the bones interpolated may. */
     {
         SlodCamera cam = look_at(0.0f, info.bounds_center[1], 10.0f * rad, 0.0f,
                                  info.bounds_center[1], -0.5f * depth);

@@ -288,9 +288,9 @@ enum SlodLodMode
   SLOD_LOD_MODE_PIXEL_SIZE = 2,
   /**
    * A crowd-wide budget of `bone_updates_per_frame` bone interpolations per frame, spent where
-   * held bones have built up the most on-screen error. A character with at least a quarter
+   * held bones have built up the most on-screen error. A character with at least a sixth
    * of its animated bones admitted interpolates all of them (cheaper than picking them out)
-   * and counts a quarter; a budget that affords every character that way runs as LOD off
+   * and counts a sixth; a budget that affords every character that way runs as LOD off
    * (`SlodCrowdStats::budget_units`).
    */
   SLOD_LOD_MODE_BUDGET = 3,

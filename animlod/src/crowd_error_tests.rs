@@ -363,12 +363,12 @@ fn a_rig_with_every_joint_at_one_point_still_animates() {
 #[test]
 fn a_budget_covering_every_bone_does_what_lod_off_does() {
     // The budget mode never does more work than LOD off: a budget that affords every
-    // character through the block path (a quarter of its animated bones each, rounded up)
+    // character through the block path (a sixth of its animated bones each, rounded up)
     // takes LOD off's path, pose for pose; one unit less picks bones and stays within it.
     let rig = Arc::new(crate::build::import_path(&asset("GDQuest_GDBot.glb")).unwrap());
     let clip = rig.clip_by_name("walk").unwrap();
     let animated = rig.clip(clip).unwrap().animated_bone_count() as u32;
-    let affords = 3 * animated.div_ceil(4);
+    let affords = 3 * animated.div_ceil(super::frame::BLOCK_SHARE as u32);
     let crowd = |lod: LodMode| {
         let mut c = Crowd::new(rig.clone());
         c.set_lod(lod).unwrap();

@@ -36,9 +36,9 @@ pub enum LodMode {
     /// A crowd-wide budget of bone interpolations per frame, spent on the bones whose hold has
     /// built up the most estimated on-screen error (projected size × priority integrated over
     /// the time held). Bones whose score is zero (invisible characters) never take budget.
-    /// The budget counts cost: a character with at least a quarter of its animated bones
+    /// The budget counts cost: a character with at least a sixth of its animated bones
     /// admitted interpolates all of them through the block path (cheaper than picking them
-    /// out) and counts a quarter; a budget that affords every character that way runs LOD off
+    /// out) and counts a sixth; a budget that affords every character that way runs LOD off
     /// (see [`crate::FrameStats::budget_units`]).
     Budget {
         /// Bone interpolations allowed per frame over all characters (budget units).

@@ -156,7 +156,7 @@ pub(crate) struct RowReport {
     /// Bone interpolations per frame with LOD.
     pub(crate) lod_interpolated: f64,
     /// Budget units spent per frame with LOD (budget mode: a bone picked out one by one counts
-    /// 1, a character interpolated whole through the block path a quarter of its animated
+    /// 1, a character interpolated whole through the block path a sixth of its animated
     /// bones; never above `bone_updates_per_frame`), 0 in other modes.
     pub(crate) lod_budget_units: f64,
     /// Model-space matrices recomputed per frame with LOD.
@@ -325,8 +325,10 @@ fn sweeps(plan: &CrowdPlan, animated: usize) -> Vec<SweepSpec> {
         None => {
             let [min, max] = THESIS.range;
             let mut v = range(min, max).to_vec();
-            let quarter = ((plan.characters * animated / 4) as u32).max(1);
-            let [grid_budget, _] = budget(quarter, format!("budget 25% ({quarter}/frame)"));
+            // A tenth of the full-detail interpolations: budgets from a sixth on run LOD off's
+            // path (see `animlod::FrameStats::budget_units`).
+            let tenth = ((plan.characters * animated / 10) as u32).max(1);
+            let [grid_budget, _] = budget(tenth, format!("budget 10% ({tenth}/frame)"));
             v.push(grid_budget);
             v.push(SweepSpec {
                 name: "error bound 1 px, grid".into(),
@@ -562,7 +564,7 @@ mod tests {
         assert_eq!(
             s[2].lod,
             LodMode::Budget {
-                bone_updates_per_frame: 625
+                bone_updates_per_frame: 250
             }
         );
         let budget = CrowdOptions {

@@ -427,7 +427,7 @@ fn check_crowd(crowd: &Value) {
                     assert_eq!(f(r, "frozen_characters"), characters, "{r:#}");
                 }
                 // The budget is never overspent (in its units: a character interpolated whole
-                // through the block path counts a quarter of its bones).
+                // through the block path counts a sixth of its bones).
                 "budget" => {
                     assert!(
                         f(r, "lod_budget_units") <= f(&s["lod"], "bone_updates_per_frame"),

@@ -139,7 +139,7 @@ fn c_demo_runs_the_net_and_the_crowd() {
         );
     }
     // The budget mode: its units are never overspent, some bones interpolate, and the bones
-    // interpolated are at least the units spent (a whole character counts a quarter).
+    // interpolated are at least the units spent (a whole character counts a sixth).
     let budget_line = lines
         .iter()
         .find(|l| l.starts_with("crowd budget"))

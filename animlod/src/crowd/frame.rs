@@ -321,16 +321,15 @@ fn block_units(slots: usize) -> u64 {
 /// In budget mode a character with at least this fraction's inverse of its animated bones
 /// admitted takes the block path (every animated bone, sampled block by block and concatenated
 /// in one pass) and counts that fraction of them. The break-even depends on the rig (a picked
-/// bone re-concatenates its whole subtree), so the share is the conservative one of those
-/// measured with `cargo run --release -p slod-demo -- crowd --gltf RIG --budget N` (100
-/// characters grown to 153 bones; LOD cost over LOD off): with 2, GDBot's 50% budget cost
-/// 1.01-1.09x; with 3, Fox's 32% and Godot_PlatformerRobot's 28% cost 1.12-1.18x; with 4,
-/// GDBot and RobotExpressive stay at or under about 1.01x at every budget (GDBot 0.62x at 9%,
-/// 0.76x at 18%), Fox and Godot_PlatformerRobot under 1x up to 11-16% of their bones but
-/// 1.06-1.13x at 21-24%, where most characters take the block path and the scoring pass
-/// comes on top. A per-character cost model (the subtrees the picked bones dirty) would
-/// place the break-even per rig.
-const BLOCK_SHARE: usize = 4;
+/// bone re-concatenates its whole subtree) and on how fast the block path is; measured with
+/// `cargo run --release -p slod-demo -- crowd --gltf RIG --budget N` (100 characters grown to
+/// 153 bones; LOD cost over LOD off, after the two-pass block sampling): with 6, GDBot and
+/// RobotExpressive cost 0.59-0.61x at 5% of their bones, 0.72-0.76x at 9%, 0.81-0.86x at
+/// 13%, 1.00-1.01x from a sixth on (LOD off's path); Fox and Godot_PlatformerRobot 0.88-0.94x
+/// at 5% but 1.03-1.19x at 9-13%. With 4 or 5, Fox and Godot_PlatformerRobot cost 1.10-1.47x
+/// at 9-22%; with 8, GDBot cost 1.04-1.08x at 13%. A per-character cost model (the subtrees the
+/// picked bones dirty) would place the break-even per rig.
+pub(super) const BLOCK_SHARE: usize = 6;
 
 /// Characters per parallel task (enough work per task to outweigh scheduling).
 const PARALLEL_CHUNK: usize = 32;
@@ -454,7 +453,7 @@ fn advance_character(
         }
         // When most bones are due anyway, interpolating all of them through the contiguous
         // block path costs less than picking them out one by one. In budget mode from a
-        // quarter of them on, counted as a quarter (see `BLOCK_SHARE`).
+        // sixth of them on, counted as a sixth (see `BLOCK_SHARE`).
         let block = match budget {
             Some(_) => count as u64 >= block_units(slots),
             None => 2 * count >= slots,

@@ -69,8 +69,8 @@ pub struct FrameStats {
     pub key_poses: u64,
     /// [`LodMode::Budget`]: the budget's units spent (never more than
     /// `bone_updates_per_frame`): a bone picked out one by one counts 1; a character whose
-    /// admitted bones are at least a quarter of its animated bones interpolates all of them
-    /// through the contiguous block path and counts a quarter of them, rounded up; a budget
+    /// admitted bones are at least a sixth of its animated bones interpolates all of them
+    /// through the contiguous block path and counts a sixth of them, rounded up; a budget
     /// that affords every character that way takes LOD off's path and spends exactly that. 0
     /// in other modes. `bones_interpolated` counts the bones actually interpolated, which may
     /// be more.

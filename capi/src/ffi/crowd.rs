@@ -24,9 +24,9 @@ pub enum SlodLodMode {
     /// `full_detail_px` and above, frozen below `freeze_below_px`.
     PixelSize = 2,
     /// A crowd-wide budget of `bone_updates_per_frame` bone interpolations per frame, spent where
-    /// held bones have built up the most on-screen error. A character with at least a quarter
+    /// held bones have built up the most on-screen error. A character with at least a sixth
     /// of its animated bones admitted interpolates all of them (cheaper than picking them out)
-    /// and counts a quarter; a budget that affords every character that way runs as LOD off
+    /// and counts a sixth; a budget that affords every character that way runs as LOD off
     /// (`SlodCrowdStats::budget_units`).
     Budget = 3,
     /// Hold a bone only while its estimated on-screen drift stays under `max_error_px` pixels.
