@@ -592,11 +592,7 @@ fn a_swap_next_to_its_merge_completes_at_the_next_call() {
         prio[k.index()] = 0.1;
     }
     let budget = Budget::Nodes(cut.len());
-    let mut ev = Evaluator::new(EvaluatorSettings {
-        hysteresis: 0.45,
-        max_ops: 8,
-        ..Default::default()
-    });
+    let mut ev = swap_evaluator();
     let plain = ev.evaluate(&h, &cut, &prio, None, budget).unwrap().to_vec();
     assert_eq!(plain, vec![Op::Coarse(m), Op::Refine(s)]);
     let rule = |op: Op, out: &mut Vec<NodeId>| neighbourhood_locks(&h, &cut, op, out);
@@ -694,11 +690,7 @@ fn a_swap_does_not_merge_for_a_split_the_batch_locks() {
         }
     }
     let budget = Budget::Nodes(cut.len());
-    let mut ev = Evaluator::new(EvaluatorSettings {
-        hysteresis: 0.45,
-        max_ops: 8,
-        ..Default::default()
-    });
+    let mut ev = swap_evaluator();
     let plain = ev.evaluate(&h, &cut, &prio, None, budget).unwrap().to_vec();
     assert_eq!(
         plain
@@ -720,4 +712,14 @@ fn a_swap_does_not_merge_for_a_split_the_batch_locks() {
         "{locked:?}"
     );
     assert_eq!(locked[1], Op::Refine(a));
+}
+
+/// The evaluator of the swap tests: hysteresis 0.45 (a merge at 0.1 pays for a split at 0.9 or
+/// 0.8, one at 0.5 does not), up to 8 operations per batch.
+fn swap_evaluator() -> Evaluator {
+    Evaluator::new(EvaluatorSettings {
+        hysteresis: 0.45,
+        max_ops: 8,
+        ..Default::default()
+    })
 }
