@@ -593,6 +593,22 @@ fn skin_held(
     Ok((palette_s, skin_s, skinned))
 }
 
+/// Adds the on-screen error of every skinned vertex in view: `shown[i]` against
+/// `reference[i]`, both in the character's model space, placed in the world by `world`.
+fn add_vertex_errors(
+    sum: &mut ErrorSum,
+    world: &glam::Affine3A,
+    view: &View,
+    shown: &[Vec3],
+    reference: &[Vec3],
+) {
+    for (p, q) in shown.iter().zip(reference) {
+        let (p, q) = (world.transform_point3(*p), world.transform_point3(*q));
+        let seen = view.is_in_view(q, 0.0).then(|| view.pixels_per_unit(q));
+        sum.add(p.distance(q), seen);
+    }
+}
+
 /// The layouts of held-joint skinning, one per mesh of `rig`.
 fn held_layouts(rig: &Rig) -> Result<Vec<SkinHoldLayout>, CrowdError> {
     rig.meshes()
@@ -845,11 +861,7 @@ pub fn run_pipeline(rig: &Arc<Rig>, setup: &LargeSetup) -> Result<PipelineRow, C
                         &world,
                         &view,
                     );
-                    for (p, q) in lod.shown(ci).iter().zip(full.shown(ci)) {
-                        let (p, q) = (world.transform_point3(*p), world.transform_point3(*q));
-                        let seen = view.is_in_view(q, 0.0).then(|| view.pixels_per_unit(q));
-                        sum.add(p.distance(q), seen);
-                    }
+                    add_vertex_errors(&mut sum, &world, &view, lod.shown(ci), full.shown(ci));
                     ci += 1;
                 }
             }
@@ -964,11 +976,7 @@ impl Whole {
             .map(|(a, b)| {
                 let mut sum = ErrorSum::default();
                 let world = reference.s.shards[b.shard].world_transform(b.id)?;
-                for (p, q) in a.out.0.iter().zip(&b.out.0) {
-                    let (p, q) = (world.transform_point3(*p), world.transform_point3(*q));
-                    let seen = view.is_in_view(q, 0.0).then(|| view.pixels_per_unit(q));
-                    sum.add(p.distance(q), seen);
-                }
+                add_vertex_errors(&mut sum, &world, view, &a.out.0, &b.out.0);
                 Ok(sum)
             })
             .collect();
@@ -980,17 +988,18 @@ impl Whole {
 
     /// Whether two pipelines' skinned outputs (positions and normals) are bit-identical.
     fn same_output(&self, other: &Whole) -> bool {
-        let bits = |v: &[Vec3]| -> Vec<u32> {
-            v.iter()
-                .flat_map(|p| p.to_array().map(f32::to_bits))
-                .collect()
+        let same = |x: &[Vec3], y: &[Vec3]| {
+            x.len() == y.len()
+                && x.iter()
+                    .zip(y)
+                    .all(|(p, q)| p.to_array().map(f32::to_bits) == q.to_array().map(f32::to_bits))
         };
         self.chars.len() == other.chars.len()
             && self
                 .chars
                 .iter()
                 .zip(&other.chars)
-                .all(|(a, b)| bits(&a.out.0) == bits(&b.out.0) && bits(&a.out.1) == bits(&b.out.1))
+                .all(|(a, b)| same(&a.out.0, &b.out.0) && same(&a.out.1, &b.out.1))
     }
 }
 
