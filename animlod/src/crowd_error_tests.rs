@@ -364,7 +364,9 @@ fn a_rig_with_every_joint_at_one_point_still_animates() {
 fn a_budget_covering_every_bone_does_what_lod_off_does() {
     // The budget mode never does more work than LOD off: a budget that affords every
     // character through the block path (a sixth of its animated bones each, rounded up)
-    // takes LOD off's path, pose for pose; one unit less picks bones and stays within it.
+    // takes LOD off's path, pose for pose; one unit less picks bones and stays within it, or,
+    // on the frames after one whose picks the cost model priced at LOD off's cost or more,
+    // takes LOD off's path too.
     let rig = Arc::new(crate::build::import_path(&asset("GDQuest_GDBot.glb")).unwrap());
     let clip = rig.clip_by_name("walk").unwrap();
     let animated = rig.clip(clip).unwrap().animated_bone_count() as u32;
@@ -391,6 +393,7 @@ fn a_budget_covering_every_bone_does_what_lod_off_does() {
         budget_of(affords - 1),
     );
     let view = view_at(4.0);
+    let mut short_lod_off = 0;
     for frame in 0..20 {
         let a = off.advance(1.0 / 60.0, &view).unwrap();
         let b = budget.advance(1.0 / 60.0, &view).unwrap();
@@ -403,11 +406,21 @@ fn a_budget_covering_every_bone_does_what_lod_off_does() {
             }
         );
         let s = short.advance(1.0 / 60.0, &view).unwrap();
-        assert!(s.budget_units < u64::from(affords), "{s:?}");
-        if frame > 0 {
-            assert!(s.bones_interpolated < a.bones_interpolated, "{s:?}");
+        if s.budget_units < u64::from(affords) {
+            if frame > 0 {
+                assert!(s.bones_interpolated <= a.bones_interpolated, "{s:?}");
+            }
+        } else {
+            // The cost model priced the last frame's picks at LOD off's cost or more: LOD
+            // off's path, as the full budget's.
+            assert_eq!(s, b);
+            short_lod_off += 1;
         }
     }
+    // Three 64-bone characters at 4 m: the first frame's picks (bones high in the hierarchy,
+    // re-concatenating most of the skeleton) are priced above LOD off's path, so every later
+    // frame of the retry period takes it.
+    assert_eq!(short_lod_off, 19);
     for (a, b) in off.character_ids().zip(budget.character_ids()) {
         assert_eq!(
             off.model_matrices(a).unwrap(),

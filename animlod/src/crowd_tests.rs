@@ -311,7 +311,7 @@ fn error_bound_holds_per_bone_drift_under_the_bound() {
     let rig = gdbot();
     let (mut c, ids) = crowd(&rig, 1);
     let cam = View::new(
-        Vec3::new(0.0, 1.0, 12.0),
+        Vec3::new(0.0, 1.0, 30.0),
         Vec3::NEG_Z,
         Vec3::Y,
         60f32.to_radians(),
@@ -360,11 +360,19 @@ fn budget_caps_updates_and_favours_the_near_character() {
     })
     .unwrap();
     let (mut near_err, mut far_err) = (ErrorSum::default(), ErrorSum::default());
+    let mut lod_off_frames = 0;
     for frame in 0..120 {
         let st = c.advance(1.0 / 60.0, &cam).unwrap();
-        // The budget's units are never overspent; a character with a sixth of its bones
-        // admitted interpolates all of them and counts a sixth.
-        assert!(st.budget_units <= budget as u64, "{st:?}");
+        // The budget's units are never overspent, except on frames that take LOD off's path
+        // (every bone, a sixth of each character's counted) because the cost model priced
+        // picking at LOD off's cost or more; a character whose picks would cost more than
+        // its block path interpolates all of its bones and counts at most a sixth.
+        let lod_off = 2 * u64::from(animated.div_ceil(6));
+        if st.budget_units > budget as u64 {
+            assert_eq!(st.budget_units, lod_off, "{st:?}");
+            assert_eq!(st.bones_interpolated, 2 * u64::from(animated), "{st:?}");
+            lod_off_frames += 1;
+        }
         assert!(st.budget_units <= st.bones_interpolated, "{st:?}");
         if frame > 10 {
             assert!(st.bones_interpolated >= budget as u64, "{st:?}");
@@ -376,6 +384,13 @@ fn budget_caps_updates_and_favours_the_near_character() {
             far_err.add(f.mean, None);
         }
     }
+    // Two 64-bone characters whose admitted bones sit high in the hierarchy: picking them
+    // re-concatenates most of the skeleton, so the budget runs LOD off's path on most frames
+    // and tries again every 30.
+    assert!(
+        lod_off_frames > 0 && lod_off_frames < 110,
+        "{lod_off_frames}"
+    );
     // Same clip and phase: the near character (8× larger on screen) gets the larger share, so
     // its error in scene units is smaller.
     assert!(near_err.finish().mean < far_err.finish().mean);

@@ -36,10 +36,12 @@ pub enum LodMode {
     /// A crowd-wide budget of bone interpolations per frame, spent on the bones whose hold has
     /// built up the most estimated on-screen error (projected size × priority integrated over
     /// the time held). Bones whose score is zero (invisible characters) never take budget.
-    /// The budget counts cost: a character with at least a sixth of its animated bones
-    /// admitted interpolates all of them through the block path (cheaper than picking them
-    /// out) and counts a sixth; a budget that affords every character that way runs LOD off
-    /// (see [`crate::FrameStats::budget_units`]).
+    /// The budget counts cost: a character whose admitted bones a cost model prices above
+    /// interpolating all of them through the block path (picked bones re-concatenate their
+    /// subtrees) takes the block path and counts at most a sixth of its animated bones; a
+    /// budget that affords every character that way runs LOD off, and so do the frames after
+    /// one whose work the cost model priced at LOD off's or more (see
+    /// [`crate::FrameStats::budget_units`]): the budget mode costs no more than LOD off.
     Budget {
         /// Bone interpolations allowed per frame over all characters (budget units).
         bone_updates_per_frame: u32,

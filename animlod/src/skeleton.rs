@@ -34,8 +34,6 @@ pub struct BoneDesc {
 #[derive(Clone, Debug)]
 pub struct Skeleton {
     parents: Vec<u32>,
-    /// Parents with roots pointing at index `len()` (a sentinel slot), for branch-free loops.
-    parents_sentinel: Vec<u32>,
     names: Vec<String>,
     rest: Vec<Transform>,
     rest_locals: Vec<glam::Affine3A>,
@@ -43,6 +41,11 @@ pub struct Skeleton {
     is_joint: Vec<bool>,
     depth: Vec<u32>,
     descendants: Vec<u32>,
+    /// The bones in depth-first pre-order (roots and children in index order): every subtree
+    /// is a contiguous run, starting at its root.
+    preorder: Vec<u32>,
+    /// Per bone: its position in [`Skeleton::preorder`].
+    preorder_pos: Vec<u32>,
     /// Per bone, in its own local space: the point that turns with it (see [`Skeleton::tip`]).
     tips: Vec<Vec3>,
 }
@@ -89,6 +92,7 @@ impl Skeleton {
                 descendants[parents[i] as usize] += descendants[i] + 1;
             }
         }
+        let (preorder, preorder_pos) = depth_first(&parents);
         let mut names = Vec::with_capacity(n);
         let mut rest = Vec::with_capacity(n);
         let mut inverse_bind = Vec::with_capacity(n);
@@ -104,13 +108,8 @@ impl Skeleton {
         }
         let tips = bone_tips(&parents, &rest);
         let rest_locals = rest.iter().map(Transform::to_affine).collect();
-        let parents_sentinel = parents
-            .iter()
-            .map(|&p| if p == NO_PARENT { n as u32 } else { p })
-            .collect();
         Ok(Skeleton {
             parents,
-            parents_sentinel,
             names,
             rest,
             rest_locals,
@@ -118,8 +117,24 @@ impl Skeleton {
             is_joint,
             depth,
             descendants,
+            preorder,
+            preorder_pos,
             tips,
         })
+    }
+
+    /// The bones in depth-first pre-order: the subtree of bone `b` is
+    /// `preorder[pos[b]..pos[b] + descendants(b) + 1]` with `pos` = [`Skeleton::preorder_pos`],
+    /// and every parent comes before its children.
+    #[inline]
+    pub(crate) fn preorder(&self) -> &[u32] {
+        &self.preorder
+    }
+
+    /// Per bone: its position in [`Skeleton::preorder`].
+    #[inline]
+    pub(crate) fn preorder_pos(&self) -> &[u32] {
+        &self.preorder_pos
     }
 
     /// Number of bones.
@@ -150,12 +165,6 @@ impl Skeleton {
     #[inline]
     pub(crate) fn parents_raw(&self) -> &[u32] {
         &self.parents
-    }
-
-    /// The parent array with roots pointing at `len()` (a sentinel slot one past the bones).
-    #[inline]
-    pub(crate) fn parents_sentinel(&self) -> &[u32] {
-        &self.parents_sentinel
     }
 
     /// Name of a bone.
@@ -213,6 +222,12 @@ impl Skeleton {
         self.descendants[bone.index()]
     }
 
+    /// Number of direct and indirect children of a bone, by raw index.
+    #[inline]
+    pub(crate) fn descendant_count_raw(&self, bone: u32) -> u32 {
+        self.descendants[bone as usize]
+    }
+
     /// The bone's tip in its own local space: a point at the bone's length along its axis, which
     /// turns with the bone. Errors are measured there as well as at the bone's origin, because a
     /// bone's own rotation moves only its tip (and its children): measured at origins alone, a
@@ -266,6 +281,45 @@ impl Skeleton {
 }
 
 /// Tips of every bone in local space (see [`Skeleton::tip`]); `parents` parents first.
+/// Depth-first pre-order of a parents-first hierarchy (roots, then each bone's children, in
+/// index order) and each bone's position in it.
+fn depth_first(parents: &[u32]) -> (Vec<u32>, Vec<u32>) {
+    let n = parents.len();
+    // Children in index order, as a compressed adjacency list.
+    let mut start = vec![0u32; n + 1];
+    for &p in parents {
+        if p != NO_PARENT {
+            start[p as usize + 1] += 1;
+        }
+    }
+    for i in 0..n {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut children = vec![0u32; start[n] as usize];
+    for (b, &p) in parents.iter().enumerate() {
+        if p != NO_PARENT {
+            children[fill[p as usize] as usize] = b as u32;
+            fill[p as usize] += 1;
+        }
+    }
+    let mut order = Vec::with_capacity(n);
+    let mut stack = Vec::new();
+    for root in (0..n).filter(|&b| parents[b] == NO_PARENT) {
+        stack.push(root as u32);
+        while let Some(b) = stack.pop() {
+            order.push(b);
+            let kids = &children[start[b as usize] as usize..start[b as usize + 1] as usize];
+            stack.extend(kids.iter().rev());
+        }
+    }
+    let mut pos = vec![0u32; n];
+    for (i, &b) in order.iter().enumerate() {
+        pos[b as usize] = i as u32;
+    }
+    (order, pos)
+}
+
 fn bone_tips(parents: &[u32], rest: &[Transform]) -> Vec<Vec3> {
     const EPS: f32 = 1e-6;
     let n = parents.len();
@@ -358,6 +412,38 @@ pub(crate) mod tests {
         let m = s.rest_model_matrices();
         let tip = m[1].transform_point3(s.tip(BoneId::from_raw(1)));
         assert!(tip.abs_diff_eq(Vec3::new(0.0, 2.0, 0.0), 1e-5), "{tip}");
+    }
+
+    #[test]
+    fn preorder_keeps_every_subtree_contiguous() {
+        // Two roots; children listed breadth-first, so index order is not depth-first.
+        let s = Skeleton::new(vec![
+            bone("r0", None, 0.0),
+            bone("a", Some(0), 1.0),
+            bone("b", Some(0), 1.0),
+            bone("a1", Some(1), 1.0),
+            bone("r1", None, 0.0),
+            bone("b1", Some(2), 1.0),
+            bone("a2", Some(1), 1.0),
+            bone("a1x", Some(3), 1.0),
+        ])
+        .unwrap();
+        assert_eq!(s.preorder(), &[0, 1, 3, 7, 6, 2, 5, 4]);
+        let pos = s.preorder_pos();
+        for (b, &at) in pos.iter().enumerate() {
+            assert_eq!(s.preorder()[at as usize] as usize, b);
+            // The run from the bone over its descendant count holds exactly its subtree.
+            let run = at as usize..at as usize + s.descendants[b] as usize + 1;
+            for (i, &x) in s.preorder().iter().enumerate() {
+                let mut a = x;
+                let mut inside = a as usize == b;
+                while s.parents[a as usize] != NO_PARENT && !inside {
+                    a = s.parents[a as usize];
+                    inside = a as usize == b;
+                }
+                assert_eq!(run.contains(&i), inside, "bone {b}, position {i}");
+            }
+        }
     }
 
     #[test]

