@@ -431,3 +431,51 @@ fn playback_controls() {
     assert!(c.chars[0].clock <= CLOCK_REBASE);
     assert!(c.pose_error(ids[0], &view()).unwrap().max < 1.0);
 }
+
+#[test]
+fn a_character_showing_a_shared_pose_is_skipped_and_evaluated_in_full_when_it_stops() {
+    for lod in [
+        LodMode::Off,
+        LodMode::ErrorBound { max_error_px: 1.0 },
+        LodMode::KeyHold { max_error_px: 1.0 },
+        LodMode::Budget {
+            bone_updates_per_frame: 40,
+        },
+    ] {
+        let rig = gdbot();
+        let (mut a, ids) = crowd(&rig, 3);
+        let (mut b, _) = crowd(&rig, 3);
+        a.set_lod(lod).unwrap();
+        b.set_lod(lod).unwrap();
+        let animated = rig.clip(walk(&rig)).unwrap().animated_bone_count() as u64;
+        a.set_pose_shared(ids[1], true).unwrap();
+        assert!(a.pose_shared(ids[1]).unwrap() && !a.pose_shared(ids[0]).unwrap());
+        let frozen = a.model_matrices(ids[1]).unwrap().to_vec();
+        for _ in 0..20 {
+            let st = a.advance(1.0 / 60.0, &view()).unwrap();
+            b.advance(1.0 / 60.0, &view()).unwrap();
+            assert!(
+                st.characters_frozen >= 1 && st.bones_held >= animated,
+                "{lod:?} {st:?}"
+            );
+            // Its clock runs on; its pose is not touched.
+            assert_eq!(a.time(ids[1]).unwrap(), b.time(ids[1]).unwrap());
+            assert_eq!(a.model_matrices(ids[1]).unwrap(), frozen.as_slice());
+        }
+        // Stopping evaluates it at its current time at once: LOD off's pose.
+        a.set_pose_shared(ids[1], false).unwrap();
+        let (mut off, _) = crowd(&rig, 3);
+        for _ in 0..20 {
+            off.advance(1.0 / 60.0, &view()).unwrap();
+        }
+        assert_eq!(
+            a.model_matrices(ids[1]).unwrap(),
+            off.model_matrices(ids[1]).unwrap(),
+            "{lod:?}"
+        );
+        assert!(
+            a.set_pose_shared(CharacterId::from_raw(99, 0), true)
+                .is_err()
+        );
+    }
+}

@@ -157,6 +157,12 @@ impl SkinHoldLayout {
         self.chunks.len()
     }
 
+    /// Per joint: the bind-space box around the vertices it moves (`None` for a joint that
+    /// moves none).
+    pub(crate) fn joint_boxes(&self) -> &[Option<(Vec3, Vec3)>] {
+        &self.boxes
+    }
+
     /// The chunks joint `j` moves vertices of.
     #[inline]
     fn chunks_of(&self, j: usize) -> &[u32] {
@@ -372,7 +378,7 @@ fn ahead(now: &Mat4, before: &Mat4, lo: Vec3, hi: Vec3, tolerance: f32) -> Mat4 
 /// The largest squared length of `d · (x, y, z, 1)` over the eight corners of the box
 /// `[lo, hi]` (`d` an affine difference of two palette matrices).
 #[inline]
-fn corner_error2(d: &Mat4, lo: Vec3, hi: Vec3) -> f32 {
+pub(crate) fn corner_error2(d: &Mat4, lo: Vec3, hi: Vec3) -> f32 {
     let (x, y, z, w) = (
         Vec3A::from_vec4(d.x_axis),
         Vec3A::from_vec4(d.y_axis),

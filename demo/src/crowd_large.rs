@@ -21,6 +21,14 @@ use crate::progress::Progress;
 /// vertices).
 const ERROR_MEASURE: &str = "bone_tips";
 
+/// The whole pipeline's rows with shared poses: held joints within 0.6 px for characters too
+/// near to share (`animlod::PoseShare`), as many shared poses kept as fit in
+/// [`SHARED_POSES_MIB`] MiB.
+const SHARED_POSES: &str = "shared_poses+held_joints_0.6px";
+
+/// Memory for shared poses (MiB): 400 of GDBot's (6,953 vertices), 2,800 of Fox's.
+const SHARED_POSES_MIB: usize = 64;
+
 /// `stages` of the `crowd.large` rows that time the whole pipeline, skinning included.
 const WHOLE_PIPELINE: &str = "sample+concat+palette+skin";
 
@@ -105,7 +113,8 @@ pub(crate) struct PipelineReport {
 #[derive(Clone, Debug, Serialize)]
 pub(crate) struct LargeReport {
     /// The LOD mode (`error_bound_1px`, `interpolated_1px` or `key_hold_1px`; the whole
-    /// pipeline's rows: `held_joints_0.6px`).
+    /// pipeline's rows: `held_joints_0.6px`, and `shared_poses+held_joints_0.6px` with far
+    /// characters sharing phase-bucket poses, `SHARED_POSES_MIB` MiB of them kept).
     pub(crate) lod_mode: &'static str,
     /// Characters.
     pub(crate) characters: usize,
@@ -151,6 +160,9 @@ pub(crate) struct LargeReport {
     /// Fraction of characters whose pose changed per frame with LOD (held joints: fraction of
     /// vertices skinned).
     pub(crate) changed_fraction: f64,
+    /// Fraction of character-frames that showed a shared phase-bucket pose
+    /// (`animlod::PoseShare`; 0 in rows without shared poses).
+    pub(crate) shared_fraction: f64,
 }
 
 impl LargeReport {
@@ -183,6 +195,7 @@ impl LargeReport {
             deterministic: r.deterministic,
             interpolated_fraction: r.interpolated_fraction,
             changed_fraction: r.changed_fraction,
+            shared_fraction: r.shared_fraction,
         }
     }
 }
@@ -239,7 +252,7 @@ pub(crate) fn run(
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let sizes: &[usize] = if quick { &[1000] } else { &[1000, 10_000] };
     let bar = progress.bar(
-        (MODES.len() * (sizes.len() + 1) + HELD_JOINTS.len() + 1 + sizes.len()) as u64,
+        (MODES.len() * (sizes.len() + 1) + HELD_JOINTS.len() + 1 + 2 * sizes.len()) as u64,
         "crowd pipeline",
     );
     let mut pipelines = Vec::new();
@@ -296,23 +309,28 @@ pub(crate) fn run(
     // The whole pipeline (skinning included) with held joints at the issue's crowd sizes, on
     // one thread against full detail and on every core against one thread (a full-detail
     // frame of 10,000 characters skins 70 M vertices: few frames there).
+    // Then the same with far characters sharing phase-bucket poses (the ablation: held
+    // joints alone above).
     let (name, px, predict) = HELD_JOINTS[HELD_JOINTS.len() - 1];
     let whole_sizes: &[usize] = if quick { &[100] } else { sizes };
-    for &n in whole_sizes {
-        let mut s = LargeSetup::new(n);
-        (s.held_joints_px, s.held_joints_predict) = (Some(px), predict);
-        (s.warmup_frames, s.frames) = match (quick, n >= 10_000) {
-            (true, _) => (2, 3),
-            (false, false) => (5, 15),
-            (false, true) => (3, 6),
-        };
-        large.push(LargeReport::new(
-            name,
-            &crowd_large::run_pipeline_large(&rig, &s, threads)?,
-            WHOLE_PIPELINE,
-            "skinned_vertices",
-        ));
-        bar.inc(1);
+    for (name, shared) in [(name, None), (SHARED_POSES, Some(SHARED_POSES_MIB))] {
+        for &n in whole_sizes {
+            let mut s = LargeSetup::new(n);
+            (s.held_joints_px, s.held_joints_predict) = (Some(px), predict);
+            s.shared_poses_mib = shared;
+            (s.warmup_frames, s.frames) = match (quick, n >= 10_000) {
+                (true, _) => (2, 3),
+                (false, false) => (5, 15),
+                (false, true) => (3, 6),
+            };
+            large.push(LargeReport::new(
+                name,
+                &crowd_large::run_pipeline_large(&rig, &s, threads)?,
+                WHOLE_PIPELINE,
+                "skinned_vertices",
+            ));
+            bar.inc(1);
+        }
     }
     bar.finish_and_clear();
     let frames = if quick { 24 } else { 96 };
@@ -431,6 +449,7 @@ fn render_large(rows: &[LargeReport]) -> String {
             "cost",
             "interp",
             "changed",
+            "shared",
             "mean px",
             "max px",
             "threads",
@@ -454,6 +473,7 @@ fn render_large(rows: &[LargeReport]) -> String {
             num(r.cost_ratio, 2),
             num(r.interpolated_fraction, 2),
             num(r.changed_fraction, 2),
+            num(r.shared_fraction, 2),
             num(r.mean_error_px as f64, 3),
             num(r.max_error_px as f64, 2),
             r.threads.to_string(),
@@ -466,7 +486,8 @@ fn render_large(rows: &[LargeReport]) -> String {
         "animation: sample + concat + palette, errors at bone origins and tips; + skin: the \
          whole pipeline with CPU skinning of every character's mesh (held joints: exact poses, \
          vertices skinned again only where a joint moved past the bound; changed = fraction of \
-         vertices skinned), errors at every skinned vertex in view, same = bit-identical \
+         vertices skinned; shared poses: characters far enough away show the skinned pose of \
+         their clip's phase bucket, kept across frames, shared = fraction of them), errors at every skinned vertex in view, same = bit-identical \
          vertices and poses on every thread count. speedup: one thread over all cores, mean \
          frame times (median: of median frame times; on this shared VM runs of frames lose a \
          core for milliseconds).",

@@ -2,7 +2,9 @@
 //! `cargo run --release -p slod-experiments --example crowd_large -- [interpolated|key-hold|error-bound|held]
 //! [max_error_px] [characters...]` (default: interpolated 1 px, 1000 and 10000 characters).
 //! `held`: the whole pipeline (skinning included) with held joints, on one thread and on every
-//! core.
+//! core; with `SHARED_MIB=N` in the environment, far characters share phase-bucket poses
+//! (`animlod::PoseShare`, N MiB of them kept). `RIG=path.glb` runs another rig (scaled to 1.8 m)
+//! instead of GDBot.
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -27,13 +29,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     } else {
         vec![1000, 10_000]
     };
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets/gltf/GDQuest_GDBot.glb");
+    let path = std::env::var("RIG").map(PathBuf::from).unwrap_or_else(|_| {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets/gltf/GDQuest_GDBot.glb")
+    });
     let rig = Arc::new(metric_rig(&animlod::build::import_path(&path)?)?);
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     if args.first().map(String::as_str) == Some("held") {
         for n in sizes {
             let mut s = LargeSetup::new(n);
             s.held_joints_px = Some(px);
+            s.shared_poses_mib = std::env::var("SHARED_MIB")
+                .ok()
+                .map(|c| c.parse())
+                .transpose()?;
             (s.warmup_frames, s.frames) = if n >= 10_000 { (3, 6) } else { (5, 15) };
             print_row(
                 &format!("whole pipeline, held joints {px} px, {n}"),

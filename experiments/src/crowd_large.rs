@@ -19,8 +19,8 @@ use rayon::prelude::*;
 use salience::View;
 
 use animlod::{
-    BuildError, CharacterId, Crowd, CrowdError, ErrorSum, HeldSkin, KeyUpdate, LodMode, Rig,
-    SkinBlendJob, SkinHoldJob, SkinHoldLayout, SkinId, SkinningJob,
+    BuildError, CharacterId, Crowd, CrowdError, ErrorSum, HeldSkin, KeyUpdate, LodMode, PoseShare,
+    Rig, SharedPose, SkinBlendJob, SkinHoldJob, SkinHoldLayout, SkinId, SkinningJob,
 };
 
 use crate::crowd::rig_height;
@@ -57,6 +57,11 @@ pub struct LargeSetup {
     /// With held joints: whether refreshed joints hold a matrix predicted ahead
     /// ([`SkinHoldJob::predict`]) or the exact one (the default).
     pub held_joints_predict: bool,
+    /// Whole pipeline only, with held joints: `Some(mib)` lets characters far enough away
+    /// share the skinned pose of their clip's phase bucket ([`PoseShare`], as many poses kept
+    /// across frames as fit in `mib` MiB) within the same bound; the others are skinned with
+    /// held joints.
+    pub shared_poses_mib: Option<usize>,
 }
 
 impl LargeSetup {
@@ -74,6 +79,7 @@ impl LargeSetup {
             seed: 11,
             held_joints_px: None,
             held_joints_predict: false,
+            shared_poses_mib: None,
         }
     }
 
@@ -135,6 +141,9 @@ pub struct LargeRow {
     /// Fraction of characters whose pose changed per frame with LOD (palette and skinning
     /// recomputed).
     pub changed_fraction: f64,
+    /// Whole pipeline with shared poses: fraction of character-frames measured that showed a
+    /// shared phase-bucket pose ([`LargeSetup::shared_poses_mib`]); 0 otherwise.
+    pub shared_fraction: f64,
     /// Whether the parallel run gave bit-identical poses to the one-thread run.
     pub deterministic: bool,
 }
@@ -888,6 +897,8 @@ struct HostCharacter {
     id: CharacterId,
     out: (Vec<Vec3>, Vec<Vec3>),
     states: Vec<HeldSkin>,
+    /// This frame's shared pose, if the character shows one (then `out` is stale).
+    shared: Option<SharedPose>,
 }
 
 /// The whole pipeline of a sharded crowd (sample, concatenate, palette, skin every character
@@ -903,6 +914,10 @@ struct Whole {
     /// Held joints within this many pixels; `None`: every vertex skinned every frame.
     held_px: Option<f32>,
     predict: bool,
+    /// Shared phase-bucket poses (with held joints and [`LargeSetup::shared_poses_mib`]).
+    share: Option<PoseShare>,
+    /// Characters that showed a shared pose in the last frame.
+    shared_last: u64,
 }
 
 impl Whole {
@@ -921,6 +936,7 @@ impl Whole {
                         Some(_) => layouts.iter().map(HeldSkin::new).collect(),
                         None => Vec::new(),
                     },
+                    shared: None,
                 });
             }
         }
@@ -930,6 +946,15 @@ impl Whole {
             layouts,
             held_px,
             predict: setup.held_joints_predict,
+            shared_last: 0,
+            share: match (held_px, setup.shared_poses_mib) {
+                (Some(_), Some(mib)) => {
+                    let mut share = PoseShare::new(rig.clone(), 1)?;
+                    share.set_capacity((mib << 20) / share.bytes_per_pose())?;
+                    Some(share)
+                }
+                _ => None,
+            },
         })
     }
 
@@ -944,6 +969,44 @@ impl Whole {
             max_error_px,
             predict: self.predict,
         });
+        let mut shared_vertices = 0;
+        if let (Some(share), Some(px)) = (&mut self.share, self.held_px) {
+            let shards = &self.s.shards;
+            // Which characters may show their phase bucket's pose (a pure function of each
+            // character), then those poses, skinned once for all who share them.
+            let share_ref = &*share;
+            let poses: Vec<Result<Option<SharedPose>, CrowdError>> = self
+                .chars
+                .par_iter()
+                .map(|c| {
+                    let crowd = &shards[c.shard];
+                    let ppu = crowd.pixels_per_unit(c.id)?;
+                    let tolerance = if ppu > 0.0 { px / ppu } else { f32::INFINITY };
+                    share_ref.pose_for(crowd.clip(c.id)?, crowd.time(c.id)?, tolerance)
+                })
+                .collect();
+            let mut poses = poses.into_iter().collect::<Result<Vec<_>, _>>()?;
+            share.keep_worthwhile(&mut poses);
+            for (c, p) in self.chars.iter_mut().zip(poses) {
+                c.shared = p;
+            }
+            self.shared_last = self.chars.iter().filter(|c| c.shared.is_some()).count() as u64;
+            let used: Vec<SharedPose> = self.chars.iter().filter_map(|c| c.shared).collect();
+            shared_vertices = share.prepare(&used)?.vertices_skinned;
+            // The crowds skip the poses of characters that show a shared one (and evaluate
+            // those that stop sharing at once).
+            let chars = &self.chars;
+            self.s
+                .shards
+                .par_iter_mut()
+                .enumerate()
+                .try_for_each(|(s, crowd)| {
+                    chars
+                        .iter()
+                        .filter(|c| c.shard == s)
+                        .try_for_each(|c| crowd.set_pose_shared(c.id, c.shared.is_some()))
+                })?;
+        }
         let shards = &self.s.shards;
         let done: Vec<Result<u64, CrowdError>> = self
             .chars
@@ -951,6 +1014,11 @@ impl Whole {
             .map_init(Vec::new, |palette, c| {
                 let crowd = &shards[c.shard];
                 Ok(match spec {
+                    Some(_) if c.shared.is_some() => {
+                        // Shows a shared pose: its own output goes stale.
+                        c.states.iter_mut().for_each(HeldSkin::reset);
+                        0
+                    }
                     Some(spec) => {
                         skin_held(rig, crowd, c.id, spec, &mut c.states, palette, &mut c.out)?.2
                     }
@@ -963,7 +1031,17 @@ impl Whole {
                 })
             })
             .collect();
-        done.into_iter().sum()
+        done.into_iter()
+            .try_fold(shared_vertices, |a, d| Ok(a + d?))
+    }
+
+    /// A character's skinned positions and normals this frame (its shared pose's if it shows
+    /// one).
+    fn output<'a>(&'a self, c: &'a HostCharacter) -> (&'a [Vec3], &'a [Vec3]) {
+        c.shared
+            .zip(self.share.as_ref())
+            .and_then(|(p, s)| s.skinned(p))
+            .unwrap_or((&c.out.0, &c.out.1))
     }
 
     /// The on-screen error of this pipeline's skinned vertices against `reference`'s (same
@@ -976,7 +1054,7 @@ impl Whole {
             .map(|(a, b)| {
                 let mut sum = ErrorSum::default();
                 let world = reference.s.shards[b.shard].world_transform(b.id)?;
-                add_vertex_errors(&mut sum, &world, view, &a.out.0, &b.out.0);
+                add_vertex_errors(&mut sum, &world, view, self.output(a).0, &b.out.0);
                 Ok(sum)
             })
             .collect();
@@ -995,11 +1073,10 @@ impl Whole {
                     .all(|(p, q)| p.to_array().map(f32::to_bits) == q.to_array().map(f32::to_bits))
         };
         self.chars.len() == other.chars.len()
-            && self
-                .chars
-                .iter()
-                .zip(&other.chars)
-                .all(|(a, b)| same(&a.out.0, &b.out.0) && same(&a.out.1, &b.out.1))
+            && self.chars.iter().zip(&other.chars).all(|(a, b)| {
+                let (x, y) = (self.output(a), other.output(b));
+                a.shared == b.shared && same(x.0, y.0) && same(x.1, y.1)
+            })
     }
 }
 
@@ -1009,7 +1086,10 @@ impl Whole {
 /// lockstep (times, and the error at every skinned vertex in view), then the held-joint
 /// pipeline alone on one thread and on `threads` threads in lockstep (the speed-up, and whether
 /// the two skinned every vertex bit-identically). `interpolated_fraction` is 1 (poses are
-/// exact); `changed_fraction` is the fraction of vertices skinned.
+/// exact); `changed_fraction` is the fraction of vertices skinned (shared poses' included).
+/// With [`LargeSetup::shared_poses_mib`], characters far enough away show the skinned pose of
+/// their clip's phase bucket instead ([`PoseShare`]; the crowd skips their poses), within the
+/// same bound.
 pub fn run_pipeline_large(
     rig: &Arc<Rig>,
     setup: &LargeSetup,
@@ -1022,11 +1102,11 @@ pub fn run_pipeline_large(
     let view = setup.view()?;
     let (one, many) = (pool(1)?, pool(threads.max(1))?);
     let frames = setup.frames.max(1) as f64;
-    let (full_ms, lod_ms, sum, skinned) = {
+    let (full_ms, lod_ms, sum, skinned, shared) = {
         let mut full = Whole::new(rig, setup, None)?;
         let mut lod = Whole::new(rig, setup, Some(px))?;
         let (mut tf, mut tl, mut sum) = (0.0f64, 0.0f64, ErrorSum::default());
-        let (mut done, mut all) = (0u64, 0u64);
+        let (mut done, mut all, mut shared) = (0u64, 0u64, 0u64);
         for frame in 0..setup.warmup_frames + setup.frames {
             let t0 = Instant::now();
             let f = one.install(|| full.frame(rig, setup.dt, &view))?;
@@ -1034,6 +1114,7 @@ pub fn run_pipeline_large(
             let l = one.install(|| lod.frame(rig, setup.dt, &view))?;
             let t2 = Instant::now();
             if frame >= setup.warmup_frames {
+                shared += lod.shared_last;
                 tf += (t1 - t0).as_secs_f64();
                 tl += (t2 - t1).as_secs_f64();
                 (done, all) = (done + l, all + f);
@@ -1045,6 +1126,7 @@ pub fn run_pipeline_large(
             tl * 1e3 / frames,
             sum.finish(),
             done as f64 / all.max(1) as f64,
+            shared as f64 / (frames * setup.characters.max(1) as f64),
         )
     };
     let mut serial = Whole::new(rig, setup, Some(px))?;
@@ -1058,6 +1140,7 @@ pub fn run_pipeline_large(
     Ok(LargeRow {
         interpolated_fraction: 1.0,
         changed_fraction: skinned,
+        shared_fraction: shared,
         deterministic: serial.same_output(&parallel) && serial.s.poses() == parallel.s.poses(),
         ..LargeRow::timed(setup, threads, (full_ms, lod_ms), &lockstep, &sum)
     })
@@ -1163,6 +1246,17 @@ mod tests {
             row.changed_fraction > 0.0 && row.changed_fraction < 0.8,
             "{row:?}"
         );
+        // Far characters sharing phase-bucket poses: the same bound at every skinned vertex,
+        // the same vertices on every thread count, and, once a clip cycle has filled the kept
+        // poses, fewer vertices skinned.
+        setup.shared_poses_mib = Some(16);
+        setup.warmup_frames = 90;
+        let shared = run_pipeline_large(&rig, &setup, 2).unwrap();
+        println!("{shared:?} cost {:.2}", shared.cost_ratio());
+        assert!(shared.deterministic);
+        assert!(shared.max_error_px <= 0.601, "{shared:?}");
+        assert!(shared.shared_fraction > 0.2, "{shared:?}");
+        assert!(shared.changed_fraction < row.changed_fraction, "{shared:?}");
         setup.held_joints_px = None;
         assert!(run_pipeline_large(&rig, &setup, 2).is_err());
     }

@@ -50,6 +50,12 @@ impl Crowd {
             );
             let drift = &mut self.drift[d * n..d * n + slots];
             let bins = &mut self.scratch.bins[d * n..d * n + slots];
+            if c.pose_shared {
+                // Shows a shared pose: scores zero, never admitted.
+                bins.fill(0);
+                self.scratch.top_bin[d] = 0;
+                continue;
+            }
             // Two passes: the drifts and bins (vectorised), then the histogram (a scatter).
             let (step, size) = (c.step, c.size_px);
             for ((e, &p), bin) in drift.iter_mut().zip(row).zip(bins.iter_mut()) {

@@ -454,6 +454,11 @@ fn advance_character(
         last,
         drift,
     } = lanes;
+    if c.pose_shared {
+        st.bones_held = animated;
+        st.characters_frozen = 1;
+        return st;
+    }
     let error_bound = match sh.lod {
         LodMode::ErrorBound { max_error_px } => Some(max_error_px),
         _ => None,

@@ -76,6 +76,19 @@ impl Crowd {
                    s: &mut Scratch| {
             let mut sum = FrameStats::default();
             for (i, c) in chars.iter_mut().enumerate() {
+                if c.pose_shared {
+                    let animated = rig.clips()[c.clip.index()].animated.len() as u64;
+                    sum += FrameStats {
+                        characters: 1,
+                        characters_frozen: 1,
+                        bones_held: animated,
+                        bones_constant: bones as u64 - animated,
+                        ..FrameStats::default()
+                    };
+                    c.key_update = KeyUpdate::Unchanged;
+                    c.changed = false;
+                    continue;
+                }
                 let r = i * stride..i * stride + bones;
                 let lanes = KeyLanes {
                     locals: &mut locals[r.clone()],

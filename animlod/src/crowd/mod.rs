@@ -44,7 +44,8 @@ pub enum PrioritySource {
 pub struct FrameStats {
     /// Characters advanced.
     pub characters: u32,
-    /// Characters with Ω = 0 (or no budget share): nothing of them was interpolated.
+    /// Characters with Ω = 0 (or no budget share), or showing a shared pose
+    /// ([`Crowd::set_pose_shared`]): nothing of them was interpolated.
     pub characters_frozen: u32,
     /// Animated bones that interpolated their channels this frame.
     pub bones_interpolated: u64,
@@ -129,6 +130,8 @@ struct Character {
     near_ppu: f32,
     /// Whether any model matrix changed in the last advance (or evaluation).
     changed: bool,
+    /// Whether the host shows a shared pose for it (see [`Crowd::set_pose_shared`]).
+    pose_shared: bool,
     /// [`LodMode::Interpolated`]: clip times of the two key poses the model matrices are
     /// blended between.
     key_from: f32,
@@ -397,6 +400,7 @@ impl Crowd {
             step: 0.0,
             near_ppu: 0.0,
             changed: true,
+            pose_shared: false,
             key_from: 0.0,
             key_to: 0.0,
             key_error: 0.0,
@@ -542,6 +546,28 @@ impl Crowd {
     /// Whether a character plays its clip once (see [`Crowd::set_play_once`]).
     pub fn play_once(&self, id: CharacterId) -> Result<bool, CrowdError> {
         Ok(self.chars[self.dense(id)?].once)
+    }
+
+    /// Marks a character as showing a shared pose (a [`crate::PoseShare`] bucket's skinned
+    /// output) instead of its own: from the next [`Crowd::advance`] its clock, clip time,
+    /// projected size and pixels per unit go on being updated, but no bone of it is sampled
+    /// or concatenated, and the budget mode spends nothing on it. Unmarking evaluates its pose
+    /// in full at its current time at once (its model matrices are stale until then), so the
+    /// host can skin it the same frame.
+    pub fn set_pose_shared(&mut self, id: CharacterId, shared: bool) -> Result<(), CrowdError> {
+        let d = self.dense(id)?;
+        if self.chars[d].pose_shared != shared {
+            self.chars[d].pose_shared = shared;
+            if !shared {
+                self.evaluate_full(d);
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether a character shows a shared pose (see [`Crowd::set_pose_shared`]).
+    pub fn pose_shared(&self, id: CharacterId) -> Result<bool, CrowdError> {
+        Ok(self.chars[self.dense(id)?].pose_shared)
     }
 
     /// A character's playback time within its clip.
