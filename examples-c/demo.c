@@ -321,6 +321,31 @@ static int run_crowd(SlodWorld *world, const char *rig_path, unsigned characters
                 for (int k = 0; k < 3; ++k)
                     skinned_finite &= isfinite(pos[3 * i + k]) && isfinite(nrm[3 * i + k]) ? 1 : 0;
             slod_held_skin_destroy(held);
+            /* Shared poses: each character's candidate phase bucket within 1 px, prepared
+             * together (poses worth sharing are skinned once and kept), then a shared
+             * character shows its bucket's vertices and the crowd skips its pose. */
+            SlodPoseShare *share = NULL;
+            CHECK(slod_pose_share_create(world, ids[0], 64, &share));
+            SlodSharedPose pose[2];
+            bool has[2];
+            uint8_t flag[2];
+            for (int i = 0; i < 2; ++i) {
+                CHECK(slod_pose_share_request(world, ids[i], share, 1.0f, &pose[i], &has[i]));
+                flag[i] = has[i] ? 1 : 0;
+            }
+            SlodPoseShareStats ps;
+            CHECK(slod_pose_share_prepare(share, pose, flag, 2, &ps));
+            for (int i = 0; i < 2; ++i) {
+                CHECK(slod_character_set_pose_shared(world, ids[i], flag[i] != 0));
+                if (flag[i]) {
+                    CHECK(slod_pose_share_vertices(share, pose[i], pos, nrm, nv, &got));
+                    skinned_finite &= got == nv;
+                }
+            }
+            CHECK(slod_character_set_pose_shared(world, ids[0], false));
+            CHECK(slod_character_set_pose_shared(world, ids[1], false));
+            printf("shared poses used %u skinned %u\n", ps.poses_used, ps.poses_skinned);
+            slod_pose_share_destroy(share);
             free(pos);
             free(nrm);
         }

@@ -461,6 +461,12 @@ typedef uint32_t SlodKeyUpdate;
 typedef struct SlodHeldSkin SlodHeldSkin;
 
 /**
+ * A rig's shared poses: each bucket's measured deviation and the skinned poses kept. Opaque to
+ * C; created by `slod_pose_share_create`, freed by `slod_pose_share_destroy`.
+ */
+typedef struct SlodPoseShare SlodPoseShare;
+
+/**
  * Everything a host created: cloths, rigs, crowds and characters. Opaque to C.
  *
  * Threads: a world is used from one thread at a time; functions taking `const SlodWorld*` may
@@ -1469,6 +1475,51 @@ typedef struct SlodCharacterDesc {
    */
   float speed;
 } SlodCharacterDesc;
+
+/**
+ * One phase bucket of one clip (`level`: the clip is cut into `2^level` buckets; `bucket`:
+ * the index from the clip's start). Plain data, written by `slod_pose_share_request`.
+ */
+typedef struct SlodSharedPose {
+  /**
+   * The clip's index in its rig.
+   */
+  uint32_t clip;
+  /**
+   * Bucket level (0 to 9).
+   */
+  uint32_t level;
+  /**
+   * Bucket index at that level.
+   */
+  uint32_t bucket;
+} SlodSharedPose;
+
+/**
+ * What one `slod_pose_share_prepare` did.
+ */
+typedef struct SlodPoseShareStats {
+  /**
+   * Candidates dropped as not worth sharing (their characters are skinned on their own).
+   */
+  uint32_t candidates_dropped;
+  /**
+   * Distinct poses shown this frame.
+   */
+  uint32_t poses_used;
+  /**
+   * Of those, poses skinned this frame (the others were kept from earlier frames).
+   */
+  uint32_t poses_skinned;
+  /**
+   * Poses dropped to stay within the capacity, least recently used first.
+   */
+  uint32_t poses_evicted;
+  /**
+   * Vertices skinned for the poses skinned.
+   */
+  uint64_t vertices_skinned;
+} SlodPoseShareStats;
 
 #ifdef __cplusplus
 extern "C" {
@@ -2854,6 +2905,119 @@ SlodResult slod_held_skin_vertices(const struct SlodHeldSkin *held,
  * thread.
  */
 void slod_held_skin_destroy(struct SlodHeldSkin *held);
+
+/**
+ * Creates the shared poses of a character's rig (measuring every clip's buckets on the calling
+ * thread: 0.03-0.5 s per rig), keeping at most `capacity` skinned poses across frames
+ * (`slod_pose_share_bytes_per_pose` each), and writes its owning pointer to `*out_share`.
+ *
+ * Ownership: the host owns the object and frees it with `slod_pose_share_destroy` (it keeps
+ * its own reference to the rig). Threads: reads the world only. Errors:
+ * `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_INVALID_ARGUMENT` for a capacity of 0 or a rig without
+ * a skinned mesh.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_share` NULL or valid for a write.
+ */
+SlodResult slod_pose_share_create(const struct SlodWorld *world,
+                                  struct SlodCharacterId character,
+                                  size_t capacity,
+                                  struct SlodPoseShare **out_share);
+
+/**
+ * Writes the bytes one kept pose takes (positions and normals of every mesh) to
+ * `*out_bytes`, to size the capacity from a memory budget.
+ *
+ * Threads: reads `share` only.
+ *
+ * # Safety
+ * `share` NULL or a live object; `out_bytes` NULL or valid for a write.
+ */
+SlodResult slod_pose_share_bytes_per_pose(const struct SlodPoseShare *share, size_t *out_bytes);
+
+/**
+ * Writes the coarsest bucket a character (after the last advance: its clip, time and pixels
+ * per unit) may share with every vertex within `max_error_px` pixels of its exact position to
+ * `*out_pose`, and whether there is one to `*out_shared` (false: too near; `*out_pose` is then
+ * left alone).
+ *
+ * Threads: reads the world and `share`. Errors: `SLOD_RESULT_STALE_ID`,
+ * `SLOD_RESULT_INVALID_ARGUMENT` for a character of another rig or a bound not finite or
+ * outside [0, 1e4].
+ *
+ * # Safety
+ * `world` NULL or a live world; `share` NULL or a live object; `out_pose` and `out_shared`
+ * NULL or valid for a write.
+ */
+SlodResult slod_pose_share_request(const struct SlodWorld *world,
+                                   struct SlodCharacterId character,
+                                   const struct SlodPoseShare *share,
+                                   float max_error_px,
+                                   struct SlodSharedPose *out_pose,
+                                   bool *out_shared);
+
+/**
+ * Prepares a frame's shared poses from every character's candidate (`poses[i]` counts where
+ * `shared[i]` is nonzero): keeps those worth sharing (a pose already kept, or asked for by two
+ * characters or more, or any while the capacity has room), setting `shared[i]` to 0 for the
+ * others, then skins the poses not kept yet (on the calling thread) and drops the least
+ * recently used beyond the capacity. Writes what it did to `*out_stats` (NULL: not wanted).
+ *
+ * Threads: mutates `share` only. Errors: `SLOD_RESULT_INVALID_ARGUMENT` for a pose the rig
+ * does not have (nothing changed).
+ *
+ * # Safety
+ * `share` NULL or a live object used by this thread only; `poses` and `shared` valid for
+ * `count` reads (and `shared` for `count` writes), NULL if `count` is 0; `out_stats` NULL or
+ * valid for a write.
+ */
+SlodResult slod_pose_share_prepare(struct SlodPoseShare *share,
+                                   const struct SlodSharedPose *poses,
+                                   uint8_t *shared,
+                                   size_t count,
+                                   struct SlodPoseShareStats *out_stats);
+
+/**
+ * Copies a prepared pose's skinned positions and normals (3 floats each, x, y, z; skeleton
+ * model space; every mesh of the rig in order) as the copy-out rule of the header says.
+ *
+ * Buffer: copy-out counted in vertices, both buffers `cap` long (call with `cap` 0 to size
+ * them). Threads: reads `share` only. Errors: `SLOD_RESULT_INVALID_ARGUMENT` for a pose not
+ * prepared (or dropped since), `SLOD_RESULT_BUFFER_TOO_SMALL`.
+ *
+ * # Safety
+ * `share` NULL or a live object; `positions` and `normals` valid for `3 × cap` float writes
+ * each (NULL if `cap` is 0); `out_len` valid for a write.
+ */
+SlodResult slod_pose_share_vertices(const struct SlodPoseShare *share,
+                                    struct SlodSharedPose pose,
+                                    float *positions,
+                                    float *normals,
+                                    size_t cap,
+                                    size_t *out_len);
+
+/**
+ * Marks a character as showing a shared pose (true) or its own (false): while marked, the
+ * crowd advances its clock but samples none of its bones; unmarking evaluates its pose in full
+ * at once, so it can be skinned the same frame.
+ *
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`.
+ *
+ * # Safety
+ * `world` NULL or a live world used by this thread only.
+ */
+SlodResult slod_character_set_pose_shared(struct SlodWorld *world,
+                                          struct SlodCharacterId character,
+                                          bool shared);
+
+/**
+ * Frees shared poses. NULL is accepted and ignored.
+ *
+ * # Safety
+ * `share` NULL or a pointer from `slod_pose_share_create` not yet destroyed, used by no other
+ * thread.
+ */
+void slod_pose_share_destroy(struct SlodPoseShare *share);
 
 #ifdef __cplusplus
 }  // extern "C"

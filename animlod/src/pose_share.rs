@@ -99,6 +99,8 @@ pub struct PoseShare {
     capacity: usize,
     frame: u64,
     vertices: usize,
+    /// Whether [`PoseShare::prepare`] skins on the current rayon pool.
+    parallel: bool,
 }
 
 /// Per-thread scratch of a pose evaluation.
@@ -154,8 +156,11 @@ fn displacement(layouts: &[SkinHoldLayout], a: &[Vec<Mat4>], b: &[Vec<Mat4>]) ->
 impl PoseShare {
     /// The shared poses of `rig`, keeping at most `capacity` skinned poses (each holds a
     /// position and a normal per vertex of every mesh). Measures every clip's bucket
-    /// deviations (on all cores). Refused for a rig without a skinned mesh or a zero capacity.
-    pub fn new(rig: Arc<Rig>, capacity: usize) -> Result<PoseShare, CrowdError> {
+    /// deviations (tens of milliseconds per rig), with `parallel` on the current rayon pool,
+    /// else on the calling thread; `parallel` also applies to [`PoseShare::prepare`] (see
+    /// [`PoseShare::set_parallel`]). Refused for a rig without a skinned mesh or a zero
+    /// capacity.
+    pub fn new(rig: Arc<Rig>, capacity: usize, parallel: bool) -> Result<PoseShare, CrowdError> {
         if rig.meshes().is_empty() {
             return Err(invalid("rig", "has no skinned mesh to share"));
         }
@@ -168,10 +173,17 @@ impl PoseShare {
             .map(|m| SkinHoldLayout::new(m, rig.skins()[m.skin.index()].joints.len()))
             .collect::<Result<Vec<_>, _>>()?;
         let clips = (0..rig.clips().len()).map(ClipId::new).collect::<Vec<_>>();
-        let deviation = clips
-            .par_iter()
-            .map(|&clip| clip_deviation(&rig, &layouts, clip))
-            .collect();
+        let deviation = if parallel {
+            clips
+                .par_iter()
+                .map(|&clip| clip_deviation(&rig, &layouts, clip))
+                .collect()
+        } else {
+            clips
+                .iter()
+                .map(|&clip| clip_deviation(&rig, &layouts, clip))
+                .collect()
+        };
         let vertices = rig.meshes().iter().map(|m| m.vertex_count()).sum();
         Ok(PoseShare {
             rig,
@@ -180,6 +192,7 @@ impl PoseShare {
             capacity,
             frame: 0,
             vertices,
+            parallel,
         })
     }
 
@@ -202,6 +215,12 @@ impl PoseShare {
         }
         self.capacity = capacity;
         Ok(())
+    }
+
+    /// Whether [`PoseShare::prepare`] skins missing poses on the current rayon pool (results
+    /// are the same either way) or on the calling thread (a host that runs its own threads).
+    pub fn set_parallel(&mut self, on: bool) {
+        self.parallel = on;
     }
 
     /// The rig.
@@ -299,8 +318,8 @@ impl PoseShare {
     }
 
     /// Makes every pose in `poses` (duplicates allowed) available to [`PoseShare::skinned`]
-    /// for this frame: skins those not kept from earlier frames (in parallel on the current
-    /// rayon pool), then drops the least recently used others beyond the capacity (never one
+    /// for this frame: skins those not kept from earlier frames (on the current rayon pool if
+    /// parallel, see [`PoseShare::set_parallel`]), then drops the least recently used others beyond the capacity (never one
     /// asked for now; the capacity grows for a frame that needs more). Refused, changing
     /// nothing, for a pose this rig does not have.
     pub fn prepare(&mut self, poses: &[SharedPose]) -> Result<PrepareStats, CrowdError> {
@@ -326,34 +345,43 @@ impl PoseShare {
         let rig = &self.rig;
         let times: Vec<f32> = missing.iter().map(|&p| self.time_of(p)).collect();
         let vertices = self.vertices;
-        let skinned: Vec<Result<Entry, CrowdError>> = missing
-            .par_iter()
-            .zip(&times)
-            .map_init(
-                || (Eval::default(), vec![Vec::new(); rig.meshes().len()]),
-                |(eval, palettes), (&pose, &time)| {
-                    eval.palettes(rig, pose.clip, time, palettes);
-                    let mut e = Entry {
-                        positions: vec![Vec3::ZERO; vertices],
-                        normals: vec![Vec3::ZERO; vertices],
-                        last_used: 0,
-                    };
-                    let mut at = 0;
-                    for (mesh, palette) in rig.meshes().iter().zip(palettes.iter()) {
-                        let v = mesh.vertex_count();
-                        SkinningJob {
-                            mesh,
-                            palette,
-                            positions: &mut e.positions[at..at + v],
-                            normals: &mut e.normals[at..at + v],
-                        }
-                        .run()?;
-                        at += v;
-                    }
-                    Ok(e)
-                },
-            )
-            .collect();
+        let init = || (Eval::default(), vec![Vec::new(); rig.meshes().len()]);
+        let skin = |(eval, palettes): &mut (Eval, Vec<Vec<Mat4>>),
+                    (&pose, &time): (&SharedPose, &f32)| {
+            eval.palettes(rig, pose.clip, time, palettes);
+            let mut e = Entry {
+                positions: vec![Vec3::ZERO; vertices],
+                normals: vec![Vec3::ZERO; vertices],
+                last_used: 0,
+            };
+            let mut at = 0;
+            for (mesh, palette) in rig.meshes().iter().zip(palettes.iter()) {
+                let v = mesh.vertex_count();
+                SkinningJob {
+                    mesh,
+                    palette,
+                    positions: &mut e.positions[at..at + v],
+                    normals: &mut e.normals[at..at + v],
+                }
+                .run()?;
+                at += v;
+            }
+            Ok(e)
+        };
+        let skinned: Vec<Result<Entry, CrowdError>> = if self.parallel {
+            missing
+                .par_iter()
+                .zip(&times)
+                .map_init(init, skin)
+                .collect()
+        } else {
+            let mut scratch = init();
+            missing
+                .iter()
+                .zip(&times)
+                .map(|x| skin(&mut scratch, x))
+                .collect()
+        };
         let mut stats = PrepareStats {
             poses_used: wanted.len() as u32,
             poses_skinned: missing.len() as u32,
@@ -452,7 +480,7 @@ mod tests {
     #[test]
     fn a_shared_pose_is_within_its_deviation_of_every_phase_in_its_bucket() {
         let rig = fox();
-        let share = PoseShare::new(rig.clone(), 64).unwrap();
+        let share = PoseShare::new(rig.clone(), 64, true).unwrap();
         let mut eval = Eval::default();
         let mut exact = vec![Vec::new(); rig.meshes().len()];
         let mut shared = exact.clone();
@@ -486,7 +514,7 @@ mod tests {
     #[test]
     fn coarser_buckets_for_larger_tolerances_and_none_below_the_finest() {
         let rig = fox();
-        let share = PoseShare::new(rig.clone(), 8).unwrap();
+        let share = PoseShare::new(rig.clone(), 8, true).unwrap();
         let clip = rig.clip_by_name("Walk").unwrap();
         let t = 0.37;
         let mut last = 0;
@@ -506,7 +534,7 @@ mod tests {
     #[test]
     fn prepared_poses_are_kept_evicted_least_recent_first_and_thread_independent() {
         let rig = fox();
-        let mut share = PoseShare::new(rig.clone(), 3).unwrap();
+        let mut share = PoseShare::new(rig.clone(), 3, true).unwrap();
         let clip = rig.clip_by_name("Walk").unwrap();
         let pose = |bucket| SharedPose {
             clip,
@@ -535,13 +563,10 @@ mod tests {
         };
         assert!(share.prepare(&[pose(20), bad]).is_err());
         assert_eq!(share.len(), before);
-        // The same vertices on one thread and on several.
-        let one = rayon::ThreadPoolBuilder::new()
-            .num_threads(1)
-            .build()
-            .unwrap();
-        let mut other = PoseShare::new(rig.clone(), 16).unwrap();
-        one.install(|| other.prepare(&all)).unwrap();
+        // The same deviations and vertices on the calling thread alone and on the pool.
+        let mut other = PoseShare::new(rig.clone(), 16, false).unwrap();
+        assert_eq!(other.deviation, share.deviation);
+        other.prepare(&all).unwrap();
         for &p in &all {
             let (a, b) = (share.skinned(p).unwrap(), other.skinned(p).unwrap());
             assert_eq!(a.0, b.0);

@@ -949,7 +949,7 @@ impl Whole {
             shared_last: 0,
             share: match (held_px, setup.shared_poses_mib) {
                 (Some(_), Some(mib)) => {
-                    let mut share = PoseShare::new(rig.clone(), 1)?;
+                    let mut share = PoseShare::new(rig.clone(), 1, true)?;
                     share.set_capacity((mib << 20) / share.bytes_per_pose())?;
                     Some(share)
                 }

@@ -55,7 +55,7 @@ fn lookup(world: &SlodWorld, id: SlodCharacterId) -> Result<(RawId, CharacterId)
 }
 
 /// The crowd of a live character, mutably, with the character's in-crowd id.
-fn character_mut(
+pub(super) fn character_mut(
     world: &mut SlodWorld,
     id: SlodCharacterId,
 ) -> Result<(&mut Crowd, CharacterId), FfiError> {

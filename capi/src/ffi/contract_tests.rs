@@ -101,3 +101,127 @@ fn crowd_statistics_are_optional() {
         );
     }
 }
+
+#[test]
+fn shared_poses_refuse_bad_input_and_change_nothing() {
+    let w = World::new();
+    let bytes = std::fs::read(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../assets/gltf/Fox.glb"
+    ))
+    .unwrap();
+    let (mut rig, mut crowd) = (SlodRigId::default(), SlodCrowdId::default());
+    let mut ids = [SlodCharacterId::default(); 2];
+    // SAFETY: live world; valid buffers and out pointers throughout; the share is destroyed
+    // once, at the end.
+    unsafe {
+        assert_eq!(
+            slod_rig_load_memory(w.0, bytes.as_ptr(), bytes.len(), &mut rig),
+            SlodResult::Ok
+        );
+        assert_eq!(
+            slod_crowd_create(w.0, rig, &slod_default_crowd_desc(), &mut crowd),
+            SlodResult::Ok
+        );
+        for (i, id) in ids.iter_mut().enumerate() {
+            let mut d = slod_default_character_desc();
+            d.time = 0.01 * i as f32;
+            assert_eq!(slod_character_create(w.0, crowd, &d, id), SlodResult::Ok);
+        }
+        let mut share = std::ptr::null_mut();
+        assert_eq!(
+            slod_pose_share_create(w.0, ids[0], 0, &mut share),
+            SlodResult::InvalidArgument
+        );
+        assert!(last().contains("capacity"), "{}", last());
+        assert_eq!(
+            slod_pose_share_create(w.0, ids[0], 8, &mut share),
+            SlodResult::Ok
+        );
+        // A bound of 10^4 px shares the whole clip: both characters ask for one pose.
+        let mut poses = [SlodSharedPose::default(); 2];
+        let mut has = [false; 2];
+        for i in 0..2 {
+            assert_eq!(
+                slod_pose_share_request(w.0, ids[i], share, 1.0e4, &mut poses[i], &mut has[i]),
+                SlodResult::Ok
+            );
+        }
+        assert_eq!(has, [true, true]);
+        assert_eq!(poses[0], poses[1]);
+        assert_eq!(
+            slod_pose_share_request(w.0, ids[0], share, f32::NAN, &mut poses[0], &mut has[0]),
+            SlodResult::InvalidArgument
+        );
+        // A bucket past the finest level: refused, flags and kept poses unchanged.
+        let mut bad = poses;
+        bad[1].level = 12;
+        let mut flags = [1u8, 1];
+        let mut stats = SlodPoseShareStats::default();
+        assert_eq!(
+            slod_pose_share_prepare(share, bad.as_ptr(), flags.as_mut_ptr(), 2, &mut stats),
+            SlodResult::InvalidArgument
+        );
+        assert_eq!((flags, stats), ([1, 1], SlodPoseShareStats::default()));
+        let mut n = 0;
+        assert_eq!(
+            slod_pose_share_vertices(
+                share,
+                poses[0],
+                std::ptr::null_mut(),
+                std::ptr::null_mut(),
+                0,
+                &mut n
+            ),
+            SlodResult::InvalidArgument,
+            "not prepared yet"
+        );
+        assert_eq!(
+            slod_pose_share_prepare(share, poses.as_ptr(), flags.as_mut_ptr(), 2, &mut stats),
+            SlodResult::Ok
+        );
+        assert_eq!(flags, [1, 1]);
+        assert_eq!((stats.poses_used, stats.poses_skinned), (1, 1));
+        assert_eq!(
+            slod_pose_share_vertices(
+                share,
+                poses[0],
+                std::ptr::null_mut(),
+                std::ptr::null_mut(),
+                0,
+                &mut n
+            ),
+            SlodResult::Ok
+        );
+        let (mut p, mut q) = (vec![0.0f32; 3 * n], vec![0.0f32; 3 * n]);
+        assert_eq!(
+            slod_pose_share_vertices(
+                share,
+                poses[0],
+                p.as_mut_ptr(),
+                q.as_mut_ptr(),
+                n - 1,
+                &mut n
+            ),
+            SlodResult::BufferTooSmall
+        );
+        assert_eq!(
+            slod_pose_share_vertices(share, poses[0], p.as_mut_ptr(), q.as_mut_ptr(), n, &mut n),
+            SlodResult::Ok
+        );
+        assert!(p.iter().chain(&q).all(|x| x.is_finite()));
+        assert_eq!(
+            slod_character_set_pose_shared(w.0, ids[1], true),
+            SlodResult::Ok
+        );
+        assert_eq!(
+            slod_crowd_advance(w.0, crowd, 0.016, std::ptr::null_mut()),
+            SlodResult::Ok
+        );
+        assert_eq!(
+            slod_character_set_pose_shared(w.0, ids[1], false),
+            SlodResult::Ok
+        );
+        slod_pose_share_destroy(share);
+    }
+}

@@ -38,6 +38,8 @@ pub mod character;
 
 pub mod held_skin;
 
+pub mod pose_share;
+
 #[cfg(test)]
 mod defaults_tests;
 
@@ -54,6 +56,7 @@ pub use collider::*;
 pub use crowd::*;
 pub use held_skin::*;
 pub use ids::{SlodCharacterId, SlodClothId, SlodCrowdId, SlodRigId};
+pub use pose_share::*;
 pub use result::{SlodResult, slod_last_error, slod_result_str};
 pub use rig::*;
 pub use view::*;
