@@ -30,6 +30,27 @@ impl World {
         (r, last())
     }
 }
+impl World {
+    /// A bundled rig loaded into the world and a crowd of it.
+    fn crowd_of(&self, file: &str) -> (SlodRigId, SlodCrowdId) {
+        let path = format!("{}/../assets/gltf/{file}", env!("CARGO_MANIFEST_DIR"));
+        let bytes = std::fs::read(path).unwrap();
+        let (mut rig, mut crowd) = (SlodRigId::default(), SlodCrowdId::default());
+        // SAFETY: live world; valid buffer and out pointers.
+        unsafe {
+            assert_eq!(
+                slod_rig_load_memory(self.0, bytes.as_ptr(), bytes.len(), &mut rig),
+                SlodResult::Ok
+            );
+            assert_eq!(
+                slod_crowd_create(self.0, rig, &slod_default_crowd_desc(), &mut crowd),
+                SlodResult::Ok
+            );
+        }
+        (rig, crowd)
+    }
+}
+
 impl Drop for World {
     fn drop(&mut self) {
         // SAFETY: created by slod_world_create, destroyed once.
@@ -77,22 +98,9 @@ fn grid_limits_are_the_documented_ones() {
 #[test]
 fn crowd_statistics_are_optional() {
     let w = World::new();
-    let bytes = std::fs::read(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../assets/gltf/GDQuest_GDBot.glb"
-    ))
-    .unwrap();
-    let (mut rig, mut crowd) = (SlodRigId::default(), SlodCrowdId::default());
-    // SAFETY: live world; valid buffers and out pointers throughout.
+    let (_, crowd) = w.crowd_of("GDQuest_GDBot.glb");
+    // SAFETY: live world and crowd; NULL statistics are allowed.
     unsafe {
-        assert_eq!(
-            slod_rig_load_memory(w.0, bytes.as_ptr(), bytes.len(), &mut rig),
-            SlodResult::Ok
-        );
-        assert_eq!(
-            slod_crowd_create(w.0, rig, &slod_default_crowd_desc(), &mut crowd),
-            SlodResult::Ok
-        );
         assert_eq!(
             slod_crowd_advance(w.0, crowd, 0.016, std::ptr::null_mut()),
             SlodResult::Ok,
@@ -105,24 +113,11 @@ fn crowd_statistics_are_optional() {
 #[test]
 fn shared_poses_refuse_bad_input_and_change_nothing() {
     let w = World::new();
-    let bytes = std::fs::read(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../assets/gltf/Fox.glb"
-    ))
-    .unwrap();
-    let (mut rig, mut crowd) = (SlodRigId::default(), SlodCrowdId::default());
+    let (_, crowd) = w.crowd_of("Fox.glb");
     let mut ids = [SlodCharacterId::default(); 2];
     // SAFETY: live world; valid buffers and out pointers throughout; the share is destroyed
     // once, at the end.
     unsafe {
-        assert_eq!(
-            slod_rig_load_memory(w.0, bytes.as_ptr(), bytes.len(), &mut rig),
-            SlodResult::Ok
-        );
-        assert_eq!(
-            slod_crowd_create(w.0, rig, &slod_default_crowd_desc(), &mut crowd),
-            SlodResult::Ok
-        );
         for (i, id) in ids.iter_mut().enumerate() {
             let mut d = slod_default_character_desc();
             d.time = 0.01 * i as f32;

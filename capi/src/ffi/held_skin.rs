@@ -186,39 +186,49 @@ pub unsafe extern "C" fn slod_held_skin_vertices(
     cap: usize,
     out_len: *mut usize,
 ) -> SlodResult {
-    // `[f32; 3]` has the size of 3 floats and the alignment of one: `3 × cap` floats are `cap`
-    // triples.
-    let (positions, normals) = (positions.cast::<[f32; 3]>(), normals.cast::<[f32; 3]>());
     boundary(|| {
         // SAFETY: caller contract: NULL or a live object.
         let h = unsafe { arg(held, "held") }?;
-        if !positions.is_null() && normals.is_null() {
-            return Err(FfiError::Null("normals"));
-        }
-        if !positions.is_null() && cap < h.positions.len() {
-            return Err(FfiError::BufferTooSmall {
-                arg: "positions",
-                cap,
-                needed: h.positions.len(),
-            });
-        }
-        if !normals.is_null() {
-            // SAFETY: caller contract: `normals` valid for `cap` >= n writes (checked above).
-            unsafe { copy_out_map(&h.normals, Vec3::to_array, normals, cap, out_len, "normals") }?;
-        }
-        // SAFETY: caller contract: `positions` valid for `cap` writes (or NULL with cap 0),
-        // `out_len` for one.
-        unsafe {
-            copy_out_map(
-                &h.positions,
-                Vec3::to_array,
-                positions,
-                cap,
-                out_len,
-                "positions",
-            )
-        }
+        // SAFETY: forwarded caller contract.
+        unsafe { copy_out_vertices(&h.positions, &h.normals, positions, normals, cap, out_len) }
     })
+}
+
+/// Copies skinned positions and normals out as 3 floats each, both buffers `cap` vertices long
+/// (the copy-out rule of the header: `cap` 0 with NULL buffers sizes them; nothing is written
+/// unless both fit).
+///
+/// # Safety
+/// `positions` and `normals` valid for `3 × cap` float writes each (NULL if `cap` is 0);
+/// `out_len` NULL or valid for a write.
+pub(super) unsafe fn copy_out_vertices(
+    p: &[Vec3],
+    n: &[Vec3],
+    positions: *mut f32,
+    normals: *mut f32,
+    cap: usize,
+    out_len: *mut usize,
+) -> Result<(), FfiError> {
+    // `[f32; 3]` has the size of 3 floats and the alignment of one: `3 × cap` floats are `cap`
+    // triples.
+    let (positions, normals) = (positions.cast::<[f32; 3]>(), normals.cast::<[f32; 3]>());
+    if !positions.is_null() && normals.is_null() {
+        return Err(FfiError::Null("normals"));
+    }
+    if !positions.is_null() && cap < p.len() {
+        return Err(FfiError::BufferTooSmall {
+            arg: "positions",
+            cap,
+            needed: p.len(),
+        });
+    }
+    if !normals.is_null() {
+        // SAFETY: caller contract: `normals` valid for `cap` >= n writes (checked above).
+        unsafe { copy_out_map(n, Vec3::to_array, normals, cap, out_len, "normals") }?;
+    }
+    // SAFETY: caller contract: `positions` valid for `cap` writes (or NULL with cap 0),
+    // `out_len` for one.
+    unsafe { copy_out_map(p, Vec3::to_array, positions, cap, out_len, "positions") }
 }
 
 /// Frees a held skin. NULL is accepted and ignored.

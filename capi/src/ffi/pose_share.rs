@@ -11,12 +11,12 @@
 use std::sync::Arc;
 
 use animlod::{ClipId, PoseShare, Rig, SharedPose};
-use glam::Vec3;
 
-use super::boundary::{arg, arg_mut, boundary, copy_out_map, slice, write_out};
+use super::boundary::{arg, arg_mut, boundary, slice, write_out};
 use super::character::{character_mut, character_ref};
 use super::cloth::in_range;
 use super::crowd::crowd_error;
+use super::held_skin::copy_out_vertices;
 use super::ids::SlodCharacterId;
 use super::result::{FfiError, SlodResult};
 use super::world::SlodWorld;
@@ -285,9 +285,6 @@ pub unsafe extern "C" fn slod_pose_share_vertices(
     cap: usize,
     out_len: *mut usize,
 ) -> SlodResult {
-    // `[f32; 3]` has the size of 3 floats and the alignment of one: `3 × cap` floats are `cap`
-    // triples.
-    let (positions, normals) = (positions.cast::<[f32; 3]>(), normals.cast::<[f32; 3]>());
     boundary(|| {
         // SAFETY: caller contract: NULL or a live object.
         let s = unsafe { arg(share, "share") }?;
@@ -295,23 +292,8 @@ pub unsafe extern "C" fn slod_pose_share_vertices(
             .share
             .skinned(pose.to_rust()?)
             .ok_or_else(|| FfiError::invalid("pose", "is not prepared (or was dropped since)"))?;
-        if !positions.is_null() && normals.is_null() {
-            return Err(FfiError::Null("normals"));
-        }
-        if !positions.is_null() && cap < p.len() {
-            return Err(FfiError::BufferTooSmall {
-                arg: "positions",
-                cap,
-                needed: p.len(),
-            });
-        }
-        if !normals.is_null() {
-            // SAFETY: caller contract: `normals` valid for `cap` >= n writes (checked above).
-            unsafe { copy_out_map(n, Vec3::to_array, normals, cap, out_len, "normals") }?;
-        }
-        // SAFETY: caller contract: `positions` valid for `cap` writes (or NULL with cap 0),
-        // `out_len` for one.
-        unsafe { copy_out_map(p, Vec3::to_array, positions, cap, out_len, "positions") }
+        // SAFETY: forwarded caller contract.
+        unsafe { copy_out_vertices(p, n, positions, normals, cap, out_len) }
     })
 }
 
