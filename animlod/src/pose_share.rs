@@ -573,4 +573,37 @@ mod tests {
             assert_eq!(a.1, b.1);
         }
     }
+
+    #[test]
+    fn every_bundled_rig_shares_within_its_deviation() {
+        for file in [
+            "GDQuest_GDBot.glb",
+            "Fox.glb",
+            "RobotExpressive.glb",
+            "Godot_PlatformerRobot.glb",
+            "SimpleSkin.gltf",
+        ] {
+            let rig = Arc::new(crate::build::import_path(&asset(file)).unwrap());
+            let mut share = PoseShare::new(rig.clone(), 4, true).unwrap();
+            let (_, radius) = rig.bounds();
+            let mut poses = Vec::new();
+            for clip in (0..rig.clips().len()).map(ClipId::new) {
+                let duration = rig.clip(clip).unwrap().duration();
+                for tol in [0.001, 0.01, 0.1].map(|f| f * radius.max(1e-3)) {
+                    let t = 0.37 * duration;
+                    if let Some(p) = share.pose_for(clip, t, tol).unwrap() {
+                        assert!(share.deviation(p).unwrap() <= tol, "{file}");
+                        poses.push(p);
+                    }
+                }
+            }
+            // A looping clip of a moving rig always shares at a tenth of its radius.
+            assert!(!poses.is_empty(), "{file}");
+            share.prepare(&poses).unwrap();
+            for &p in &poses {
+                let (pos, nrm) = share.skinned(p).unwrap();
+                assert!(pos.iter().chain(nrm).all(|v| v.is_finite()), "{file}");
+            }
+        }
+    }
 }
