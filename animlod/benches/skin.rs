@@ -5,12 +5,15 @@
 //! `animlod::PoseShare`: each character's phase bucket, prepared for all, held joints for the
 //! characters too near to share; after warm-up the 256 kept poses cover the buckets the looping
 //! clip visits, so a shared frame costs the lookups: 8 characters at 50 m measured 1.6 µs
-//! against 170 µs with held joints and 517 µs in full). Each iteration advances the crowd one 60 Hz frame, writes the
-//! palettes and skins; throughput is in vertices of the mesh (skinned, held or shared).
+//! against 170 µs with held joints and 517 µs in full). Each iteration advances the crowd one
+//! 60 Hz frame, writes the palettes and skins; throughput is in vertices of the mesh (skinned,
+//! held or shared).
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use animlod::{Crowd, HeldSkin, LodMode, PoseShare, Rig, SkinHoldJob, SkinHoldLayout, SkinningJob};
+use animlod::{
+    CharacterId, Crowd, HeldSkin, LodMode, PoseShare, Rig, SkinHoldJob, SkinHoldLayout, SkinningJob,
+};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::{Mat4, Vec3};
 use slod_experiments::crowd_large::{LargeSetup, metric_rig};
@@ -35,6 +38,33 @@ fn crowd(rig: &Arc<Rig>, distance: f32) -> Crowd {
     }
     c.set_lod(LodMode::Off).unwrap();
     c
+}
+
+/// Skins a character's first mesh with held joints within 1 px.
+fn skin_held_1px(
+    crowd: &Crowd,
+    id: CharacterId,
+    layout: &SkinHoldLayout,
+    palette: &mut [Mat4],
+    state: &mut HeldSkin,
+    positions: &mut [Vec3],
+    normals: &mut [Vec3],
+) {
+    let mesh = &crowd.rig().meshes()[0];
+    crowd.skinning_matrices(id, mesh.skin, palette).unwrap();
+    let ppu = crowd.pixels_per_unit(id).unwrap();
+    SkinHoldJob {
+        mesh,
+        layout,
+        palette,
+        tolerance: if ppu > 0.0 { 1.0 / ppu } else { f32::INFINITY },
+        predict: false,
+        state,
+        positions,
+        normals,
+    }
+    .run()
+    .unwrap();
 }
 
 fn bench(c: &mut Criterion) {
@@ -74,20 +104,7 @@ fn bench(c: &mut Criterion) {
                 held.advance(1.0 / 60.0, &view).unwrap();
                 let ids: Vec<_> = held.character_ids().collect();
                 for ((id, (p, q)), state) in ids.into_iter().zip(&mut out).zip(&mut states) {
-                    held.skinning_matrices(id, mesh.skin, &mut palette).unwrap();
-                    let ppu = held.pixels_per_unit(id).unwrap();
-                    SkinHoldJob {
-                        mesh,
-                        layout: &layout,
-                        palette: &palette,
-                        tolerance: if ppu > 0.0 { 1.0 / ppu } else { f32::INFINITY },
-                        predict: false,
-                        state,
-                        positions: p,
-                        normals: q,
-                    }
-                    .run()
-                    .unwrap();
+                    skin_held_1px(&held, id, &layout, &mut palette, state, p, q);
                 }
             });
         });
@@ -118,22 +135,7 @@ fn bench(c: &mut Criterion) {
                         state.reset();
                         continue;
                     }
-                    shared
-                        .skinning_matrices(id, mesh.skin, &mut palette)
-                        .unwrap();
-                    let ppu = shared.pixels_per_unit(id).unwrap();
-                    SkinHoldJob {
-                        mesh,
-                        layout: &layout,
-                        palette: &palette,
-                        tolerance: if ppu > 0.0 { 1.0 / ppu } else { f32::INFINITY },
-                        predict: false,
-                        state,
-                        positions: p,
-                        normals: q,
-                    }
-                    .run()
-                    .unwrap();
+                    skin_held_1px(&shared, id, &layout, &mut palette, state, p, q);
                 }
             });
         });

@@ -128,13 +128,8 @@ impl Eval {
             .model_matrices(&self.locals, &mut self.models);
         for (mesh, p) in rig.meshes().iter().zip(out) {
             let skin = &rig.skins()[mesh.skin.index()];
-            p.clear();
-            p.extend(
-                skin.joints
-                    .iter()
-                    .zip(&skin.inverse_bind)
-                    .map(|(j, ib)| self.models[j.index()] * *ib),
-            );
+            p.resize(skin.joints.len(), Mat4::IDENTITY);
+            crate::crowd::palette(skin, &self.models, p);
         }
     }
 }

@@ -41,6 +41,13 @@ impl Crowd {
         for (d, c) in self.chars.iter().enumerate() {
             let clip = &self.rig.clips()[c.clip.index()];
             let slots = clip.animated.len();
+            let bins = &mut self.scratch.bins[d * n..d * n + slots];
+            if c.pose_shared {
+                // Shows a shared pose: scores zero, never admitted.
+                bins.fill(0);
+                self.scratch.top_bin[d] = 0;
+                continue;
+            }
             let row = step_row(
                 &self.tables[c.clip.index()],
                 slots,
@@ -49,13 +56,6 @@ impl Crowd {
                 buf,
             );
             let drift = &mut self.drift[d * n..d * n + slots];
-            let bins = &mut self.scratch.bins[d * n..d * n + slots];
-            if c.pose_shared {
-                // Shows a shared pose: scores zero, never admitted.
-                bins.fill(0);
-                self.scratch.top_bin[d] = 0;
-                continue;
-            }
             // Two passes: the drifts and bins (vectorised), then the histogram (a scatter).
             let (step, size) = (c.step, c.size_px);
             for ((e, &p), bin) in drift.iter_mut().zip(row).zip(bins.iter_mut()) {

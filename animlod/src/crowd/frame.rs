@@ -63,20 +63,6 @@ fn clear_bits(bits: &mut [u64], start: usize, end: usize) {
     }
 }
 
-/// Model matrices of the bones in `list` (parents before children).
-#[inline]
-fn concat_list(parents: &[u32], list: &[u32], locals: &[Affine3A], models: &mut [Mat4]) {
-    for &b in list {
-        let b = b as usize;
-        let p = parents[b];
-        models[b] = if p == NO_PARENT {
-            Mat4::from(locals[b])
-        } else {
-            concat(&models[p as usize], &locals[b])
-        };
-    }
-}
-
 /// The row of a per-segment table (`slots` wide) for a character's last playback step: the
 /// row of the segment playing now, or, when the step crossed key boundaries, the element-wise
 /// maximum over every segment it touched (in `buf`). Without this, motion in the part of a step
@@ -110,16 +96,16 @@ pub(super) fn step_row<'a>(
     buf
 }
 
-/// Full-detail model-space pass over the bones that move in this clip (a precomputed list, so
-/// no per-bone flag tests).
+/// Model-space pass over a parents-first list of bones: a clip's moving bones (full detail; a
+/// precomputed list, so no per-bone flag tests) or the subtrees a pick dirtied.
 #[inline]
-pub(super) fn concat_moving(
+pub(super) fn concat_bones(
     parents: &[u32],
-    moving: &[u32],
+    bones: &[u32],
     locals: &[Affine3A],
     models: &mut [Mat4],
 ) {
-    for &b in moving {
+    for &b in bones {
         let b = b as usize;
         let p = parents[b];
         models[b] = if p == NO_PARENT {
@@ -131,14 +117,21 @@ pub(super) fn concat_moving(
 }
 
 impl Crowd {
-    /// The budget units LOD off's path costs: every character's animated bones through the
-    /// block path, a [`BLOCK_SHARE`]th of them rounded up each (see
-    /// [`FrameStats::budget_units`]).
-    fn full_detail_units(&self) -> u64 {
+    /// LOD off's path over every character: its budget units (a [`BLOCK_SHARE`]th of each
+    /// character's animated bones, rounded up; see [`FrameStats::budget_units`]), the cost
+    /// model's price of it, and the animated bones the budget would score.
+    fn lod_off_price(&self) -> (u64, u64, u64) {
         self.chars
             .iter()
-            .map(|c| block_units(self.rig.clips()[c.clip.index()].animated.len()))
-            .sum()
+            .fold((0, 0, 0), |(units, cost, slots), c| {
+                let clip = &self.rig.clips()[c.clip.index()];
+                let n = clip.animated.len();
+                (
+                    units + block_units(n),
+                    cost + block_cost(clip),
+                    slots + n as u64,
+                )
+            })
     }
 
     /// Evaluates a character's full pose at its current time and stamps every bone as updated.
@@ -237,6 +230,8 @@ impl Crowd {
             return Ok(stats);
         }
         let mut stats = FrameStats::default();
+        // Budget mode: the cost model's price of LOD off's path and the bones scored.
+        let mut lod_off = (0u64, 0u64);
         let budget = match lod {
             // A budget that affords every character through the block path takes LOD off's
             // path (one block pass per character, no scores, no error): the budget mode does no
@@ -248,7 +243,8 @@ impl Crowd {
             LodMode::Budget {
                 bone_updates_per_frame,
             } => {
-                let full = self.full_detail_units();
+                let (full, full_cost, slots) = self.lod_off_price();
+                lod_off = (full_cost, slots);
                 if (bone_updates_per_frame as u64) < full && self.budget_lod_off_frames == 0 {
                     Some(self.budget_cut(bone_updates_per_frame))
                 } else {
@@ -347,11 +343,8 @@ impl Crowd {
             self.scratch.bins = bins;
             self.scratch.top_bin = top;
             if budget.is_some() {
-                let (lod_off, slots) = self.chars.iter().fold((0u64, 0u64), |(c, n), ch| {
-                    let clip = &self.rig.clips()[ch.clip.index()];
-                    (c + block_cost(clip), n + clip.animated.len() as u64)
-                });
-                if cost + BUDGET_SCORE_COST * slots >= lod_off {
+                let (lod_off_cost, slots) = lod_off;
+                if cost + BUDGET_SCORE_COST * slots >= lod_off_cost {
                     self.budget_lod_off_frames = BUDGET_RETRY_FRAMES;
                 }
             }
@@ -560,28 +553,34 @@ fn advance_character(
             }
             k
         };
-        let dirty = dirty_subtrees(
-            rig.skeleton(),
-            &clip.animated,
-            &s.updated[..k],
-            &mut s.bits,
-            &mut s.list,
+        // The thesis' modes spend the fraction Ω sets (and analyses compare weightings at equal
+        // fractions): the block path only once most bones are due anyway.
+        let thesis = matches!(
+            sh.lod,
+            LodMode::Ratio(_) | LodMode::Range { .. } | LodMode::PixelSize { .. }
         );
+        let most_due = 2 * count >= slots;
+        let dirty = if thesis && most_due {
+            0
+        } else {
+            dirty_subtrees(
+                rig.skeleton(),
+                &clip.animated,
+                &s.updated[..k],
+                &mut s.bits,
+                &mut s.list,
+            )
+        };
         let pick_cost = PICKED_SLOT_COST * count as u64 + PICKED_CONCAT_COST * dirty as u64;
-        let block = match sh.lod {
-            // The thesis' modes spend the fraction Ω sets (and analyses compare weightings at
-            // equal fractions): the block path only once most bones are due anyway.
-            LodMode::Ratio(_) | LodMode::Range { .. } | LodMode::PixelSize { .. } => {
-                2 * count >= slots
-            }
-            // In budget mode the block path is also taken from a sixth of the bones admitted
-            // (counted a sixth): at equal cost it leaves less error than picking them (Fox,
-            // 100 characters grown to 153 bones: cost 0.77x at 10.6 px mean against 0.88x at
-            // 15.4 px picking; 0.94x at 5.9 px against 0.88x at 12.2 px).
-            _ => {
-                pick_cost >= block_cost(clip)
-                    || (budget.is_some() && count as u64 >= block_units(slots))
-            }
+        // In budget mode the block path is also taken from a sixth of the bones admitted
+        // (counted a sixth): at equal cost it leaves less error than picking them (Fox, 100
+        // characters grown to 153 bones: cost 0.77x at 10.6 px mean against 0.88x at 15.4 px
+        // picking; 0.94x at 5.9 px against 0.88x at 12.2 px).
+        let block = if thesis {
+            most_due
+        } else {
+            pick_cost >= block_cost(clip)
+                || (budget.is_some() && count as u64 >= block_units(slots))
         };
         if budget.is_some() {
             // Never more than the budget admitted; the block path at a BLOCK_SHARE'th.
@@ -603,7 +602,7 @@ fn advance_character(
             clip.locate_all(c.time, &mut s.cursors);
             clip.sample_slots(&s.cursors, &s.updated[..k], &mut s.trs, locals);
             let sampled = clock.map(|t| (t, Instant::now()));
-            concat_list(parents, &s.list[..dirty], locals, models);
+            concat_bones(parents, &s.list[..dirty], locals, models);
             st.bones_concatenated = dirty as u64;
             stage_times(&mut st, sampled);
             return st;
@@ -620,7 +619,7 @@ fn advance_character(
     last[..slots].fill(c.clock);
     drift[..slots].fill(0.0);
     let sampled = clock.map(|t| (t, Instant::now()));
-    concat_moving(parents, &clip.moving, locals, models);
+    concat_bones(parents, &clip.moving, locals, models);
     st.bones_concatenated = clip.moving.len() as u64;
     stage_times(&mut st, sampled);
     st

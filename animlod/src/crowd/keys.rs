@@ -25,7 +25,7 @@ use std::time::Instant;
 use glam::{Affine3A, Mat4};
 use rayon::prelude::*;
 
-use super::frame::concat_moving;
+use super::frame::concat_bones;
 use super::*;
 
 /// Most frames a key interval may span (a far, slow character would otherwise go seconds
@@ -154,7 +154,7 @@ fn evaluate(
     s.trs.prepare(clip.base_pose());
     clip.locate_all(t, &mut s.cursors);
     clip.sample_compose(&s.cursors, &mut s.trs, locals);
-    concat_moving(parents, &clip.moving, locals, out);
+    concat_bones(parents, &clip.moving, locals, out);
 }
 
 /// `models[b] = from[b] + (to[b] − from[b]) · w` over the bones that move in the clip.

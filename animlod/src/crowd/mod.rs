@@ -855,7 +855,7 @@ impl Crowd {
 
 /// A skin's palette (model × inverse bind per joint) from model matrices into `out` (long
 /// enough); returns the joint count.
-fn palette(s: &crate::rig::Skin, models: &[Mat4], out: &mut [Mat4]) -> usize {
+pub(crate) fn palette(s: &crate::rig::Skin, models: &[Mat4], out: &mut [Mat4]) -> usize {
     {
         for ((o, j), ib) in out.iter_mut().zip(&s.joints).zip(&s.inverse_bind) {
             *o = models[j.index()] * *ib;
