@@ -109,6 +109,9 @@ pub(crate) struct WorldSection {
     pub(crate) spin_wait_ms: f32,
     /// Full-detail frame on one thread over the frame on `parallel_threads` (null if unmeasured).
     pub(crate) parallel_speedup: Option<f64>,
+    /// The same ratio of the median frames (null if unmeasured): robust to bursts in which the
+    /// host wakes the second thread late.
+    pub(crate) parallel_speedup_median: Option<f64>,
     /// Threads of the speedup's parallel blocks.
     pub(crate) parallel_threads: usize,
     /// Mean full-detail frame on one thread, ms.
@@ -199,6 +202,7 @@ pub(crate) fn run(plan: &WorldPlan, progress: Progress) -> Result<WorldOutcome, 
         threads: b.threads,
         spin_wait_ms: c.spin_wait_ms,
         parallel_speedup: report.parallel_speedup,
+        parallel_speedup_median: report.parallel_speedup_median,
         parallel_threads: report.parallel_threads,
         full_detail_ms_serial: report.reference_ms_serial,
         full_detail_ms_parallel: report.reference_ms_parallel,

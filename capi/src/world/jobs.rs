@@ -31,10 +31,58 @@ pub(crate) fn run_crowds(jobs: &mut [CrowdJob<'_>], dt: f32, view: &View) -> f64
     t.elapsed().as_secs_f64() * 1e3
 }
 
+/// Steps one cloth job through its steps, counting each step's work in `model`'s units.
+fn step_job(job: &mut ClothJob<'_>, view: &View, model: crate::cloth::CostModel) {
+    let mut work = StepCost::default();
+    job.outcome = (|| {
+        for _ in 0..job.steps {
+            job.cloth.step(view)?;
+            let w = job.cloth.stats().last_work;
+            let all = model.seconds(&w) * 1e9;
+            let evaluation = model.evaluation_seconds(&w) * 1e9;
+            let transitions = model.transition * w.transitions as f64 * 1e9;
+            work.steps += 1;
+            work.evaluations += (w.evaluated_nodes > 0) as u64;
+            work.units += all;
+            work.settled_units += all - evaluation - transitions;
+        }
+        Ok(work)
+    })();
+}
+
+/// The cloth jobs largest first, each behind its own lock, for threads to take in turn
+/// (longest-processing-time scheduling: split in halves, as a parallel iterator over the slot
+/// order does, two threads waited on each other's last large cloth).
+fn largest_first<'j, 'a>(
+    jobs: &'j mut [ClothJob<'a>],
+) -> Vec<std::sync::Mutex<&'j mut ClothJob<'a>>> {
+    let mut order: Vec<&mut ClothJob<'_>> = jobs.iter_mut().collect();
+    order.sort_by_key(|j| {
+        let work = j.cloth.link_count() + j.cloth.node_count();
+        (std::cmp::Reverse(work * j.steps as usize), j.key)
+    });
+    order.into_iter().map(std::sync::Mutex::new).collect()
+}
+
+/// Takes cloth jobs from `queue` (claimed through `next`) until none is left.
+fn take_cloths(
+    queue: &[std::sync::Mutex<&mut ClothJob<'_>>],
+    next: &std::sync::atomic::AtomicUsize,
+    view: &View,
+    model: crate::cloth::CostModel,
+) {
+    loop {
+        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let Some(job) = queue.get(i) else { break };
+        // Each job is taken once, so its lock is never contended.
+        let mut job = job.lock().unwrap_or_else(|e| e.into_inner());
+        step_job(&mut job, view, model);
+    }
+}
+
 /// Steps each cloth job on `threads` threads of the current pool, largest first, each taken
-/// by whichever thread is free (longest-processing-time scheduling: split in halves, as a
-/// parallel iterator over the slot order does, two threads waited on each other's last large
-/// cloth); counts each step's work in `model`'s units. Returns the wall time spent, ms.
+/// by whichever thread is free; counts each step's work in `model`'s units. Returns the wall
+/// time spent, ms.
 pub(crate) fn run_cloths(
     jobs: &mut [ClothJob<'_>],
     view: &View,
@@ -42,51 +90,57 @@ pub(crate) fn run_cloths(
     threads: usize,
 ) -> f64 {
     let t = Instant::now();
-    let run = |job: &mut ClothJob<'_>| {
-        let mut work = StepCost::default();
-        job.outcome = (|| {
-            for _ in 0..job.steps {
-                job.cloth.step(view)?;
-                let w = job.cloth.stats().last_work;
-                let all = model.seconds(&w) * 1e9;
-                let evaluation = model.evaluation_seconds(&w) * 1e9;
-                let transitions = model.transition * w.transitions as f64 * 1e9;
-                work.steps += 1;
-                work.evaluations += (w.evaluated_nodes > 0) as u64;
-                work.units += all;
-                work.settled_units += all - evaluation - transitions;
-            }
-            Ok(work)
-        })();
-    };
     if threads < 2 || jobs.len() < 2 {
-        jobs.iter_mut().for_each(run);
+        jobs.iter_mut().for_each(|job| step_job(job, view, model));
     } else {
-        let mut order: Vec<&mut ClothJob<'_>> = jobs.iter_mut().collect();
-        order.sort_by_key(|j| {
-            let work = j.cloth.link_count() + j.cloth.node_count();
-            (std::cmp::Reverse(work * j.steps as usize), j.key)
-        });
-        let queue: Vec<std::sync::Mutex<&mut ClothJob<'_>>> =
-            order.into_iter().map(std::sync::Mutex::new).collect();
+        let queue = largest_first(jobs);
         let next = std::sync::atomic::AtomicUsize::new(0);
-        let work = || {
-            loop {
-                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                let Some(job) = queue.get(i) else { break };
-                // Each job is taken once, so its lock is never contended.
-                let mut job = job.lock().unwrap_or_else(|e| e.into_inner());
-                run(&mut job);
-            }
-        };
         rayon::scope(|s| {
             for _ in 1..threads {
-                s.spawn(|_| work());
+                s.spawn(|_| take_cloths(&queue, &next, view, model));
             }
-            work();
+            take_cloths(&queue, &next, view, model);
         });
     }
     t.elapsed().as_secs_f64() * 1e3
+}
+
+/// The crowds and the cloths of a frame in one phase on `threads` threads of the current pool:
+/// the crowds start first on one thread (their own parallel split spreads to any thread that
+/// runs out of cloths), the cloths largest first on the others, and a thread done with the
+/// crowds takes cloths too. No barrier between the two kinds: the crowds' serial parts overlap
+/// the cloths' steps. Returns the crowds' own wall time and the phase's, ms. Results are those
+/// of [`run_crowds`] then [`run_cloths`]: each object's work does not depend on which thread
+/// does it.
+pub(crate) fn run_together(
+    crowds: &mut [CrowdJob<'_>],
+    cloths: &mut [ClothJob<'_>],
+    dt: f32,
+    view: &View,
+    model: crate::cloth::CostModel,
+    threads: usize,
+) -> (f64, f64) {
+    let t = Instant::now();
+    if threads < 2 || crowds.is_empty() {
+        let crowd_ms = run_crowds(crowds, dt, view);
+        run_cloths(cloths, view, model, threads);
+        return (crowd_ms, t.elapsed().as_secs_f64() * 1e3);
+    }
+    let queue = largest_first(cloths);
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut crowd_ms = 0.0;
+    rayon::scope(|s| {
+        // Spawned first: the first job another thread steals (thieves take the oldest).
+        s.spawn(|_| crowd_ms = run_crowds(crowds, dt, view));
+        for _ in 2..threads {
+            s.spawn(|_| take_cloths(&queue, &next, view, model));
+        }
+        // Spawned last, so the calling thread's first pop after its own share is this one:
+        // whichever thread finishes the crowds steals it and joins the cloths.
+        s.spawn(|_| take_cloths(&queue, &next, view, model));
+        take_cloths(&queue, &next, view, model);
+    });
+    (crowd_ms, t.elapsed().as_secs_f64() * 1e3)
 }
 
 /// A cloth of the frame, its steps, and what they cost.

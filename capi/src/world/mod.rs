@@ -153,8 +153,9 @@ impl World {
     }
 
     /// Advances every crowd by `dt` seconds and every cloth through `dt` seconds of its own
-    /// solver steps, seen through `view`, under the budget: crowds first (each split across the
-    /// threads), then the cloths in parallel, largest first. An object that fails is reported as the error
+    /// solver steps, seen through `view`, under the budget, in one phase on the threads: the
+    /// crowds (each split across the threads) beside the cloths, largest first
+    /// ([`FrameBudgeter::advance_together`]). An object that fails is reported as the error
     /// after every other object has advanced.
     pub fn step(&mut self, dt: f32, view: &View) -> Result<WorldStepStats, WorldError> {
         if !(dt.is_finite() && (0.0..=3600.0).contains(&dt)) {
@@ -164,18 +165,13 @@ impl World {
             });
         }
         let mut frame = self.budget.begin_frame();
-        self.budget.advance_crowds(
+        self.budget.advance_together(
             &mut frame,
             dt,
             view,
             self.crowds
                 .iter_mut()
                 .map(|(h, c)| (CrowdKey(h).object(), c)),
-        );
-        self.budget.step_cloths(
-            &mut frame,
-            dt,
-            view,
             self.cloths
                 .iter_mut()
                 .map(|(h, c)| (ClothKey(h).object(), c)),
