@@ -534,6 +534,13 @@ impl SoftBody {
             .map(|&(_, q)| ParticleId::from_raw(q))
     }
 
+    /// Changes whenever a particle or a link is added, removed or renumbered (never for a
+    /// position, weight or setting): a cache of anything derived from the neighbourhoods
+    /// compares it to know it is still valid.
+    pub(crate) fn topology_generation(&self) -> u64 {
+        self.links.generation()
+    }
+
     /// Incident links with the particle at the other end.
     pub(crate) fn incident_raw(&self, p: u32) -> &[(LinkId, u32)] {
         self.links.incident(p)

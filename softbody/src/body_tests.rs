@@ -486,3 +486,34 @@ fn threads_step_bit_identically() {
         }
     }
 }
+
+/// The topology generation moves with every particle or link added or removed, and with
+/// nothing else (a step, a position, a weight): what keeps a neighbourhood cache honest.
+#[test]
+fn topology_generation_moves_with_links_and_particles_only() {
+    let (_, mut body) = net(5);
+    let mut g = body.topology_generation();
+    let mut moved = |body: &SoftBody, expect: bool, what: &str| {
+        let now = body.topology_generation();
+        assert_eq!(now != g, expect, "{what}");
+        g = now;
+    };
+    body.step();
+    moved(&body, false, "step");
+    body.set_position(ParticleId::new(3), Vec3::ONE).unwrap();
+    moved(&body, false, "position");
+    let l = body
+        .add_link(ParticleId::new(0), ParticleId::new(24), 1.0, 0.0)
+        .unwrap();
+    moved(&body, true, "link added");
+    body.set_link_weight(l, 0.5).unwrap();
+    moved(&body, false, "weight");
+    body.remove_link(l).unwrap();
+    moved(&body, true, "link removed");
+    let p = body.add_particle(Vec3::ZERO, 1.0).unwrap();
+    moved(&body, true, "particle added");
+    body.remove_particle(p).unwrap();
+    moved(&body, true, "particle removed");
+    body.remove_particle(ParticleId::new(7)).unwrap();
+    moved(&body, true, "particle with links removed");
+}

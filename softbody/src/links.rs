@@ -240,6 +240,10 @@ pub(crate) struct LinkStore {
     /// not allocate (transitions add and remove particles all the time).
     spare_lists: Vec<Vec<(LinkId, u32)>>,
     len: usize,
+    /// Raised by every change to the particles' incident lists (a particle or link added or
+    /// removed, a particle moved, a renumbering): what a cache derived from the neighbourhoods
+    /// (the reconstruction's weights) compares to know it is still valid.
+    generation: u64,
 }
 
 impl LinkStore {
@@ -248,8 +252,15 @@ impl LinkStore {
         self.len
     }
 
+    /// The topology generation: changes whenever any particle's incident list (its links, their
+    /// order, the particle at their other end) or the particle count changes.
+    pub(crate) fn generation(&self) -> u64 {
+        self.generation
+    }
+
     /// Grows the per-particle tables to `n` particles.
     pub(crate) fn add_particle(&mut self) {
+        self.generation += 1;
         self.colours.push(0);
         let list = self
             .spare_lists
@@ -287,6 +298,7 @@ impl LinkStore {
     /// order the builders use), so the result is the store a builder would make for the
     /// renumbered particles. Multipliers are not kept (they restart at every substep).
     pub(crate) fn renumber(&mut self, new_of_old: &[u32]) {
+        self.generation += 1;
         let mut links: Vec<(u32, u32, LinkInfo)> = self
             .iter()
             .map(|l| {
@@ -323,6 +335,7 @@ impl LinkStore {
 
     /// Colours and stores a link under a free id.
     fn insert(&mut self, id: LinkId, a: u32, b: u32, rest: f32, compliance: f32, weight: f32) {
+        self.generation += 1;
         let used = self.colours[a as usize] | self.colours[b as usize];
         let colour = (!used).trailing_zeros();
         let slot = if (colour as usize) < COLOURS {
@@ -373,6 +386,7 @@ impl LinkStore {
 
     /// Removes a live link: O(1) swap-remove in a colour batch (ordered in the overflow batch).
     pub(crate) fn remove(&mut self, id: LinkId) {
+        self.generation += 1;
         let slot = self.slots[id.index()];
         debug_assert!(slot.batch != FREE);
         let i = slot.index as usize;
@@ -412,6 +426,7 @@ impl LinkStore {
     /// Removes every link of particle `p` (as [`LinkStore::remove`] for each, without reading
     /// the ends back from the blocks: the incident list knows them).
     pub(crate) fn remove_all_of(&mut self, p: u32) {
+        self.generation += 1;
         let mut list = std::mem::take(&mut self.incident[p as usize]);
         for &(id, other) in &list {
             let slot = self.slots[id.index()];
@@ -468,6 +483,7 @@ impl LinkStore {
     /// Removes particle `p` (which must have no links left) by moving particle `last` into
     /// its slot: rewrites `last`'s links and tables. `last == p` just drops the tail.
     pub(crate) fn move_particle(&mut self, p: u32, last: u32) {
+        self.generation += 1;
         debug_assert!(self.incident[p as usize].is_empty());
         if p != last {
             let moved = std::mem::take(&mut self.incident[last as usize]);

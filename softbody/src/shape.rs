@@ -18,6 +18,9 @@ use glam::{Mat3, Quat, Vec3};
 const MAX_ITERATIONS: u32 = 24;
 /// Stop when the correction angle (radians) drops below this.
 const TOLERANCE: f32 = 1e-5;
+/// Stop after a Newton step smaller than this (radians): the next would be below
+/// [`TOLERANCE`] (quadratic convergence, `QUADRATIC_EXIT² = 1e-6`).
+const QUADRATIC_EXIT: f32 = 1e-3;
 
 /// Adds one pair to the covariance `Σ q rᵀ` of current offsets `q` and rest offsets `r`.
 #[inline]
@@ -53,13 +56,20 @@ pub fn rotation_of(a: &Mat3, start: Quat) -> Quat {
             p.x_axis.y - p.y_axis.x,
         );
         let trace = p.x_axis.x + p.y_axis.y + p.z_axis.z;
-        let omega = newton_step(&p, trace, g).unwrap_or(g / (trace.abs() + scale));
+        let newton = newton_step(&p, trace, g);
+        let omega = newton.unwrap_or(g / (trace.abs() + scale));
         let angle = omega.length();
         if angle.is_nan() || angle < TOLERANCE {
             // Converged, or a degenerate (zero / non-finite) covariance: keep the estimate.
             break;
         }
         q = (Quat::from_axis_angle(omega / angle, angle) * q).normalize();
+        if newton.is_some() && angle < QUADRATIC_EXIT {
+            // Newton converges quadratically: the next correction would be about `angle²`
+            // (times the conditioning that `newton_step` bounds), under the tolerance, so the
+            // iteration that would only confirm it is skipped (it was half of every warm call).
+            break;
+        }
     }
     q
 }

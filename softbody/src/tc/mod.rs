@@ -218,6 +218,8 @@ pub struct TreeCutSoftBody {
     rotation: Vec<Quat>,
     /// The reconstruction's own warm start (see [`RotationCache`]).
     recon_rotation: RotationCache,
+    /// The smooth reconstruction's weights for the current topology.
+    recon_table: reconstruct::TableCache,
     transitions: Vec<Transition>,
     spare: Vec<Transition>,
     pins: pins::Pins,
@@ -299,6 +301,7 @@ impl TreeCutSoftBody {
             node_particle,
             rotation: vec![Quat::IDENTITY; n_nodes],
             recon_rotation: RotationCache::new(n_nodes),
+            recon_table: reconstruct::TableCache::default(),
             transitions: Vec::new(),
             spare: Vec::new(),
             pins: pins::Pins::new(n_nodes, n_vertices),
