@@ -92,6 +92,24 @@ impl Motion {
         }
     }
 
+    /// [`update_velocities`] then [`Motion::predict`], fused: per particle the velocity of the
+    /// substep that ends (`(x − prev) / h`) and the prediction of the next, bit for bit what the
+    /// two passes give, in one pass over the particles.
+    fn update_and_predict(
+        &self,
+        x: &mut [Vec4],
+        v: &mut [Vec4],
+        f: &[Vec4],
+        prev: &mut [Vec4],
+        inv_h: f32,
+    ) {
+        for (((x, v), f), prev) in x.iter_mut().zip(v).zip(f).zip(prev) {
+            let ended = (*x - *prev) * inv_h;
+            *prev = *x;
+            (*x, *v) = self.particle(*x, ended, *f);
+        }
+    }
+
     /// [`Motion::predict`] of the cells of one thread's range of particles.
     fn predict_cells(&self, x: &[Cell<Vec4>], v: &[Cell<Vec4>], f: &[Vec4], prev: &[Cell<Vec4>]) {
         for (((x, v), f), prev) in x.iter().zip(v).zip(f).zip(prev) {
@@ -680,6 +698,10 @@ impl SoftBody {
         };
         let colliding = !self.colliders.is_empty();
         let threads = self.threads();
+        // One sweep per substep (the default): every link's multiplier is 0 when it is solved
+        // and never read again, so the kernels neither load nor store them and nothing resets
+        // them (`kernel::solve_batch`); the same bits as resetting and sweeping.
+        let fresh = s.iterations == 1;
         if colliding {
             self.begin_contact_step();
         } else {
@@ -687,23 +709,26 @@ impl SoftBody {
             self.contact.touched.fill(false);
         }
         if threads > 1 {
-            self.substeps_team(threads, motion, inv_h, colliding);
+            self.substeps_team(threads, motion, inv_h, colliding, fresh);
         } else {
+            motion.predict(
+                &mut self.positions,
+                &mut self.velocities,
+                &self.forces,
+                &mut self.prev,
+            );
             for sub in 0..n {
-                motion.predict(
-                    &mut self.positions,
-                    &mut self.velocities,
-                    &self.forces,
-                    &mut self.prev,
-                );
                 for a in &self.anchors {
                     let i = a.particle as usize;
                     self.positions[i] = a.position(sub, n).extend(self.positions[i].w);
                 }
-                self.links.reset_lambdas();
+                if !fresh {
+                    self.links.reset_lambdas();
+                }
                 self.groups.reset_lambdas();
                 for _ in 0..s.iterations {
-                    self.links.solve(self.kernel, &mut self.positions, inv_h2);
+                    self.links
+                        .solve(self.kernel, &mut self.positions, inv_h2, fresh);
                     if !self.groups.is_empty() {
                         self.groups.solve(self.positions.as_mut_slice(), inv_h2);
                     }
@@ -717,7 +742,19 @@ impl SoftBody {
                         &mut self.contact,
                     );
                 }
-                update_velocities(&mut self.velocities, &self.positions, &self.prev, inv_h);
+                if sub + 1 < n {
+                    // This substep's velocities and the next one's prediction in one pass over
+                    // the particles (the same arithmetic as the two passes in turn).
+                    motion.update_and_predict(
+                        &mut self.positions,
+                        &mut self.velocities,
+                        &self.forces,
+                        &mut self.prev,
+                        inv_h,
+                    );
+                } else {
+                    update_velocities(&mut self.velocities, &self.positions, &self.prev, inv_h);
+                }
             }
         }
         for a in &mut self.anchors {
@@ -734,7 +771,14 @@ impl SoftBody {
     /// (its range of them, or the disjoint links of one colour batch) or its own blocks, so
     /// the result has exactly the bits of the one-thread loop.
     #[allow(unsafe_code)]
-    fn substeps_team(&mut self, threads: usize, motion: Motion, inv_h: f32, colliding: bool) {
+    fn substeps_team(
+        &mut self,
+        threads: usize,
+        motion: Motion,
+        inv_h: f32,
+        colliding: bool,
+        fresh: bool,
+    ) {
         let s = self.settings;
         let n = s.substeps;
         let inv_h2 = inv_h * inv_h;
@@ -787,7 +831,7 @@ impl SoftBody {
         let work = |run: usize| {
             if run < r {
                 let mut view = x;
-                links.solve(run, path, &mut view, inv_h2);
+                links.solve(run, path, &mut view, inv_h2, fresh);
             } else if run < 2 * r {
                 links.reset_lambdas(run - r);
             } else if run < 2 * r + chunks {
@@ -807,7 +851,10 @@ impl SoftBody {
         team::run(threads - 1, most, &work, |leader| {
             let (mut x, mut x0) = (x, x0);
             for sub in 0..n {
-                if r + chunks <= team::MAX_RUNS {
+                if fresh {
+                    // No multiplier to reset: the prediction alone.
+                    leader.phase(2 * r, chunks);
+                } else if r + chunks <= team::MAX_RUNS {
                     leader.phase(r, r + chunks);
                 } else {
                     for lo in (r..2 * r).step_by(team::MAX_RUNS) {
@@ -819,10 +866,12 @@ impl SoftBody {
                     let i = a.particle as usize;
                     x.set(i, a.position(sub, n).extend(x.get(i).w));
                 }
-                links.reset_overflow_lambdas();
+                if !fresh {
+                    links.reset_overflow_lambdas();
+                }
                 groups.reset_lambdas();
                 for _ in 0..s.iterations {
-                    links.sweep(leader, path, &mut x, inv_h2);
+                    links.sweep(leader, path, &mut x, inv_h2, fresh);
                     if !groups.is_empty() {
                         groups.solve(&mut x, inv_h2);
                     }

@@ -150,12 +150,19 @@ impl Runs<'_> {
     }
 
     /// Solves run `run` against `p`.
-    pub(crate) fn solve(&self, run: usize, path: KernelPath, p: &mut impl Particles, inv_h2: f32) {
+    pub(crate) fn solve(
+        &self,
+        run: usize,
+        path: KernelPath,
+        p: &mut impl Particles,
+        inv_h2: f32,
+        fresh: bool,
+    ) {
         let mut guard = self.runs[run]
             .lock()
             .unwrap_or_else(PoisonError::into_inner);
         let (blocks, len) = &mut *guard;
-        kernel::solve_batch(path, p, blocks, *len, inv_h2);
+        kernel::solve_batch(path, p, blocks, *len, inv_h2, fresh);
     }
 
     /// Resets the multipliers of run `run` (start of a substep).
@@ -185,18 +192,19 @@ impl Runs<'_> {
         path: KernelPath,
         p: &mut SharedParticles<'_>,
         inv_h2: f32,
+        fresh: bool,
     ) {
         for &(start, count) in &self.plan {
             match count {
                 0 => {}
-                1 => self.solve(start, path, p, inv_h2),
+                1 => self.solve(start, path, p, inv_h2, fresh),
                 _ => leader.phase(start, count),
             }
         }
         let mut overflow = self.overflow.lock().unwrap_or_else(PoisonError::into_inner);
         let overflow = &mut **overflow;
         if overflow.len > 0 {
-            kernel::solve_ordered(p, &mut overflow.blocks, overflow.len, inv_h2);
+            kernel::solve_ordered(p, &mut overflow.blocks, overflow.len, inv_h2, fresh);
         }
     }
 }
@@ -528,13 +536,20 @@ impl LinkStore {
         }
     }
 
-    /// One sweep over all links: colour batches in order, then the ordered overflow batch.
-    pub(crate) fn solve(&mut self, path: KernelPath, p: &mut [Vec4], inv_h2: f32) {
+    /// One sweep over all links: colour batches in order, then the ordered overflow batch
+    /// (`fresh` as in [`kernel::solve_batch`]).
+    pub(crate) fn solve(&mut self, path: KernelPath, p: &mut [Vec4], inv_h2: f32, fresh: bool) {
         for bt in &mut self.batches {
-            kernel::solve_batch(path, p, &mut bt.blocks, bt.len, inv_h2);
+            kernel::solve_batch(path, p, &mut bt.blocks, bt.len, inv_h2, fresh);
         }
         if self.overflow.len > 0 {
-            kernel::solve_ordered(p, &mut self.overflow.blocks, self.overflow.len, inv_h2);
+            kernel::solve_ordered(
+                p,
+                &mut self.overflow.blocks,
+                self.overflow.len,
+                inv_h2,
+                fresh,
+            );
         }
     }
 

@@ -82,12 +82,13 @@ fn every_path_matches_scalar_bitwise() {
                 &mut b_ref,
                 len,
                 3600.0,
+                false,
             );
         }
         for &path in &paths {
             let (mut p, mut b) = (p0.clone(), b0.clone());
             for _ in 0..5 {
-                solve_batch(path, p.as_mut_slice(), &mut b, len, 3600.0);
+                solve_batch(path, p.as_mut_slice(), &mut b, len, 3600.0, false);
             }
             assert_eq!(bits(&p), bits(&p_ref), "{path:?}, {len} links");
             let lam = |b: &[Block]| -> Vec<u32> {
@@ -101,13 +102,63 @@ fn every_path_matches_scalar_bitwise() {
     }
 }
 
+/// A fresh sweep (multipliers known to be 0, not stored) moves the particles exactly as a
+/// sweep after resetting the multipliers does, on every path and in the ordered sweep, and
+/// leaves the stored multipliers as they were.
+#[test]
+fn fresh_sweep_is_a_sweep_from_zero_multipliers() {
+    for (seed, len) in [(11u64, 37usize), (12, 160), (13, 7)] {
+        let (p0, b0) = batch(seed, 2 * len + 9, len);
+        // Multipliers left over from earlier sweeps: the fresh sweep must not read them.
+        let (mut p_warm, mut stale) = (p0.clone(), b0.clone());
+        solve_batch(
+            KernelPath::Scalar,
+            p_warm.as_mut_slice(),
+            &mut stale,
+            len,
+            3600.0,
+            false,
+        );
+        let mut zeroed = stale.clone();
+        zeroed.iter_mut().for_each(|blk| blk.lambda = [0.0; LANES]);
+        let (mut p_ref, mut b_ref) = (p0.clone(), zeroed);
+        solve_batch(
+            KernelPath::Scalar,
+            p_ref.as_mut_slice(),
+            &mut b_ref,
+            len,
+            3600.0,
+            false,
+        );
+        for path in KernelPath::supported() {
+            let (mut p, mut b) = (p0.clone(), stale.clone());
+            solve_batch(path, p.as_mut_slice(), &mut b, len, 3600.0, true);
+            assert_eq!(bits(&p), bits(&p_ref), "{path:?}, {len} links");
+            assert_eq!(b, stale, "{path:?}: multipliers untouched");
+        }
+        let (mut p, mut b) = (p0.clone(), stale.clone());
+        let (mut q, mut c) = (p0.clone(), b_ref.clone());
+        c.iter_mut().for_each(|blk| blk.lambda = [0.0; LANES]);
+        solve_ordered(p.as_mut_slice(), &mut b, len, 3600.0, true);
+        solve_ordered(q.as_mut_slice(), &mut c, len, 3600.0, false);
+        assert_eq!(bits(&p), bits(&q), "ordered, {len} links");
+    }
+}
+
 /// The scalar path keeps inverse masses, leaves weight-0 links' particles and pinned particles
 /// where they were, and moves the others.
 #[test]
 fn scalar_reference_properties() {
     let (p0, b0) = batch(9, 80, 32);
     let (mut p, mut b) = (p0.clone(), b0.clone());
-    solve_batch(KernelPath::Scalar, p.as_mut_slice(), &mut b, 32, 3600.0);
+    solve_batch(
+        KernelPath::Scalar,
+        p.as_mut_slice(),
+        &mut b,
+        32,
+        3600.0,
+        false,
+    );
     assert!(
         p.iter()
             .zip(&p0)

@@ -25,7 +25,7 @@ use std::arch::x86_64::*;
 
 /// Solves every block of `blocks` with AVX-512F; returns the number solved (0 if the CPU
 /// lacks AVX-512F, leaving them to the caller's scalar loop).
-pub(super) fn blocks_avx512<P: Particles + ?Sized>(
+pub(super) fn blocks_avx512<P: Particles + ?Sized, const FRESH: bool>(
     p: &mut P,
     blocks: &mut [Block],
     inv_h2: f32,
@@ -35,12 +35,12 @@ pub(super) fn blocks_avx512<P: Particles + ?Sized>(
     }
     // SAFETY: the CPU supports AVX-512F (checked just above), which is the only requirement
     // for calling a function compiled with `target_feature(enable = "avx512f")`.
-    unsafe { run_avx512(p, blocks, inv_h2) };
+    unsafe { run_avx512::<P, FRESH>(p, blocks, inv_h2) };
     blocks.len()
 }
 
 /// Solves every block of `blocks` with AVX2; returns the number solved (0 if the CPU lacks AVX2).
-pub(super) fn blocks_avx2<P: Particles + ?Sized>(
+pub(super) fn blocks_avx2<P: Particles + ?Sized, const FRESH: bool>(
     p: &mut P,
     blocks: &mut [Block],
     inv_h2: f32,
@@ -50,14 +50,18 @@ pub(super) fn blocks_avx2<P: Particles + ?Sized>(
     }
     // SAFETY: the CPU supports AVX2 (checked just above), which is the only requirement for
     // calling a function compiled with `target_feature(enable = "avx2")`.
-    unsafe { run_avx2(p, blocks, inv_h2) };
+    unsafe { run_avx2::<P, FRESH>(p, blocks, inv_h2) };
     blocks.len()
 }
 
 #[target_feature(enable = "avx512f")]
-fn run_avx512<P: Particles + ?Sized>(p: &mut P, blocks: &mut [Block], inv_h2: f32) {
+fn run_avx512<P: Particles + ?Sized, const FRESH: bool>(
+    p: &mut P,
+    blocks: &mut [Block],
+    inv_h2: f32,
+) {
     for blk in blocks {
-        block_avx512(p, blk, inv_h2);
+        block_avx512::<P, FRESH>(p, blk, inv_h2);
     }
 }
 
@@ -194,14 +198,21 @@ macro_rules! solve_registers {
 
 #[target_feature(enable = "avx512f")]
 #[inline]
-fn block_avx512<P: Particles + ?Sized>(p: &mut P, blk: &mut Block, inv_h2: f32) {
+fn block_avx512<P: Particles + ?Sized, const FRESH: bool>(p: &mut P, blk: &mut Block, inv_h2: f32) {
+    let lambda = if FRESH {
+        _mm512_setzero_ps()
+    } else {
+        load16(&blk.lambda)
+    };
     let (lambda, na, nb) = solve_registers!(
         gather16!(p, &blk.a), gather16!(p, &blk.b), load16(&blk.rest),
-        load16(&blk.compliance), load16(&blk.weight), load16(&blk.lambda), inv_h2;
+        load16(&blk.compliance), load16(&blk.weight), lambda, inv_h2;
         _mm512_sub_ps, _mm512_add_ps, _mm512_mul_ps, _mm512_div_ps, _mm512_sqrt_ps,
         _mm512_max_ps, _mm512_set1_ps
     );
-    store16(lambda, &mut blk.lambda);
+    if !FRESH {
+        store16(lambda, &mut blk.lambda);
+    }
     scatter16!(p, &blk.a, na);
     scatter16!(p, &blk.b, nb);
 }
@@ -272,26 +283,43 @@ type Solved8 = (__m256, [__m256; 4], [__m256; 4]);
 
 #[target_feature(enable = "avx2")]
 #[inline]
-fn solve8(blk: &Block, o: usize, a: [__m256; 4], b: [__m256; 4], inv_h2: f32) -> Solved8 {
+fn solve8<const FRESH: bool>(
+    blk: &Block,
+    o: usize,
+    a: [__m256; 4],
+    b: [__m256; 4],
+    inv_h2: f32,
+) -> Solved8 {
+    let lambda = if FRESH {
+        _mm256_setzero_ps()
+    } else {
+        load8(&blk.lambda, o)
+    };
     solve_registers!(
         a, b, load8(&blk.rest, o), load8(&blk.compliance, o), load8(&blk.weight, o),
-        load8(&blk.lambda, o), inv_h2;
+        lambda, inv_h2;
         _mm256_sub_ps, _mm256_add_ps, _mm256_mul_ps, _mm256_div_ps, _mm256_sqrt_ps,
         _mm256_max_ps, _mm256_set1_ps
     )
 }
 
 #[target_feature(enable = "avx2")]
-fn run_avx2<P: Particles + ?Sized>(p: &mut P, blocks: &mut [Block], inv_h2: f32) {
+fn run_avx2<P: Particles + ?Sized, const FRESH: bool>(
+    p: &mut P,
+    blocks: &mut [Block],
+    inv_h2: f32,
+) {
     for blk in blocks {
         // The two halves are independent (a batch's links share no particle): gathering both
         // before solving either gives the core two dependency chains to overlap.
         let (a0, b0) = (gather8!(p, &blk.a, 0), gather8!(p, &blk.b, 0));
         let (a1, b1) = (gather8!(p, &blk.a, 8), gather8!(p, &blk.b, 8));
-        let (l0, na0, nb0) = solve8(blk, 0, a0, b0, inv_h2);
-        let (l1, na1, nb1) = solve8(blk, 8, a1, b1, inv_h2);
-        store8(l0, &mut blk.lambda, 0);
-        store8(l1, &mut blk.lambda, 8);
+        let (l0, na0, nb0) = solve8::<FRESH>(blk, 0, a0, b0, inv_h2);
+        let (l1, na1, nb1) = solve8::<FRESH>(blk, 8, a1, b1, inv_h2);
+        if !FRESH {
+            store8(l0, &mut blk.lambda, 0);
+            store8(l1, &mut blk.lambda, 8);
+        }
         scatter8!(p, &blk.a, 0, na0);
         scatter8!(p, &blk.b, 0, nb0);
         scatter8!(p, &blk.a, 8, na1);
