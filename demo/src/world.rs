@@ -112,6 +112,9 @@ pub(crate) struct WorldSection {
     /// The same ratio of the median frames (null if unmeasured): robust to bursts in which the
     /// host wakes the second thread late.
     pub(crate) parallel_speedup_median: Option<f64>,
+    /// Of the full-detail frames on `parallel_threads` (fixed work), the fraction within ±10%
+    /// of their median: the machine's own jitter, the most a wall-clock controller can hold.
+    pub(crate) fixed_work_within_10pct_fraction: f64,
     /// Threads of the speedup's parallel blocks.
     pub(crate) parallel_threads: usize,
     /// Mean full-detail frame on one thread, ms.
@@ -203,6 +206,7 @@ pub(crate) fn run(plan: &WorldPlan, progress: Progress) -> Result<WorldOutcome, 
         spin_wait_ms: c.spin_wait_ms,
         parallel_speedup: report.parallel_speedup,
         parallel_speedup_median: report.parallel_speedup_median,
+        fixed_work_within_10pct_fraction: report.fixed_work_within_10pct_fraction,
         parallel_threads: report.parallel_threads,
         full_detail_ms_serial: report.reference_ms_serial,
         full_detail_ms_parallel: report.reference_ms_parallel,

@@ -715,6 +715,11 @@ pub struct WorldReport {
     pub parallel_speedup_median: Option<f64>,
     /// Threads of the parallel blocks.
     pub parallel_threads: usize,
+    /// Of the reference's frames on `parallel_threads` (fixed work: full detail), the fraction
+    /// within ±10% of their median: what a perfect controller of the wall clock could reach on
+    /// this machine during the run (the machine's own jitter, as the twin floor is the scene's
+    /// chaos).
+    pub fixed_work_within_10pct_fraction: f64,
     /// Cost units of the reference's frame (mean).
     pub full_detail_units: f64,
     /// The deterministic variant under a cost-unit budget.
@@ -914,6 +919,15 @@ pub fn run_world(
     let crowd = crowd_error.finish();
     let median_ratio = (!serial.is_empty() && !par.is_empty())
         .then(|| quantile(&serial, 0.5) / quantile(&par, 0.5));
+    let par_median = quantile(&par, 0.5);
+    let fixed_within = if par.is_empty() {
+        0.0
+    } else {
+        par.iter()
+            .filter(|&&ms| (ms - par_median).abs() <= 0.1 * par_median)
+            .count() as f64
+            / par.len() as f64
+    };
     let reference_ms_serial = mean(serial.into_iter()).unwrap_or(0.0);
     let reference_ms_parallel = mean(par.into_iter()).unwrap_or(0.0);
     Ok(WorldReport {
@@ -929,6 +943,7 @@ pub fn run_world(
             .then(|| reference_ms_serial / reference_ms_parallel),
         parallel_speedup_median: median_ratio,
         parallel_threads: parallel,
+        fixed_work_within_10pct_fraction: fixed_within,
         full_detail_units: full_units,
         cost_units,
     })
@@ -1011,6 +1026,15 @@ pub fn format_table(report: &WorldReport) -> String {
             report.parallel_threads,
             opt(report.parallel_speedup, 2),
             opt(report.parallel_speedup_median, 2)
+        ),
+    ]);
+    s.row([
+        "machine jitter (fixed work)".to_string(),
+        format!(
+            "{:.1}% of the full-detail frames on {} threads within 10% of their median: \
+             the most a wall-clock controller can hold here",
+            100.0 * report.fixed_work_within_10pct_fraction,
+            report.parallel_threads
         ),
     ]);
     s.row([
