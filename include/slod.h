@@ -1645,7 +1645,8 @@ SlodResult slod_world_set_crowd_share(struct SlodWorld *world,
  * Advances every crowd by `dt` seconds and every cloth through `dt` seconds of its own solver
  * steps (at most `max_cloth_steps`), seen through the world's camera and light, under the
  * world's budget: crowds first (split across the threads), then cloths worn by characters
- * follow their new poses, then all cloths step in parallel. Writes what the frame did to
+ * follow their new poses, then all cloths step in parallel (a world with no worn cloth runs
+ * its crowds and cloths in one phase on the threads, as `World::step` does). Writes what the frame did to
  * `*out_stats` when it is not NULL.
  *
  * Use it instead of calling `slod_crowd_advance` and `slod_cloth_step` per object. Threads:
@@ -1657,7 +1658,9 @@ SlodResult slod_world_set_crowd_share(struct SlodWorld *world,
  * # Safety
  * `world` NULL or a live world; `out_stats` NULL or valid for a write.
  */
-SlodResult slod_world_step(struct SlodWorld *world, float dt, struct SlodWorldStepStats *out_stats);
+SlodResult slod_world_step(struct SlodWorld *world,
+                           float dt,
+                           struct SlodWorldStepStats *out_stats);
 
 /**
  * Writes the world budget's current shared error bound, px, to `*out_px`.

@@ -140,6 +140,14 @@ pub(crate) struct ClothContacts {
     worn: Option<(SlodCharacterId, BoneAttachments)>,
 }
 
+impl ClothContacts {
+    /// Whether the cloth is worn by a character (it then follows the character's pose each
+    /// world step, after the crowds advanced).
+    pub(crate) fn is_worn(&self) -> bool {
+        self.worn.is_some()
+    }
+}
+
 /// The default collider: a sphere of radius 0.5 m at the origin, 5 mm thickness, friction 0.3
 /// (the Rust `ColliderDesc::default()`); capsule and box fields preset to half length 0.5 and
 /// half extents 0.5.

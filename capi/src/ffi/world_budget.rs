@@ -393,7 +393,8 @@ pub struct SlodWorldStepStats {
 /// Advances every crowd by `dt` seconds and every cloth through `dt` seconds of its own solver
 /// steps (at most `max_cloth_steps`), seen through the world's camera and light, under the
 /// world's budget: crowds first (split across the threads), then cloths worn by characters
-/// follow their new poses, then all cloths step in parallel. Writes what the frame did to
+/// follow their new poses, then all cloths step in parallel (a world with no worn cloth runs
+/// its crowds and cloths in one phase on the threads, as `World::step` does). Writes what the frame did to
 /// `*out_stats` when it is not NULL.
 ///
 /// Use it instead of calling `slod_crowd_advance` and `slod_cloth_step` per object. Threads:
@@ -416,32 +417,54 @@ pub unsafe extern "C" fn slod_world_step(
         in_range(dt, 0.0, 3600.0, "dt")?;
         let mut frame = world.budget.begin_frame();
         let view = world.view;
-        {
+        let worn = world.cloths.iter_mut().any(|(_, e)| e.contacts.is_worn());
+        let mut followed = Ok(());
+        if !worn {
+            // No cloth follows a character: crowds and cloths share one phase on the threads
+            // (`FrameBudgeter::advance_together`), as `World::step` does.
             let SlodWorld {
                 pool,
                 budget,
                 crowds,
+                cloths,
                 ..
             } = &mut *world;
             SlodWorld::run(pool.as_ref(), || {
-                budget.advance_crowds(
+                budget.advance_together(
                     &mut frame,
                     dt,
                     &view,
                     crowds.iter_mut().map(|(id, c)| (crowd_key(id), c)),
+                    cloths
+                        .iter_mut()
+                        .map(|(id, e)| (cloth_key(id), &mut e.cloth)),
                 );
             });
-        }
-        // Worn cloths follow their characters' new poses before stepping.
-        let mut followed = Ok(());
-        for id in world.cloths.ids() {
-            if let Err(e) = super::collider::follow_character(world, id.into())
-                && followed.is_ok()
+        } else {
             {
-                followed = Err(e);
+                let SlodWorld {
+                    pool,
+                    budget,
+                    crowds,
+                    ..
+                } = &mut *world;
+                SlodWorld::run(pool.as_ref(), || {
+                    budget.advance_crowds(
+                        &mut frame,
+                        dt,
+                        &view,
+                        crowds.iter_mut().map(|(id, c)| (crowd_key(id), c)),
+                    );
+                });
             }
-        }
-        let outcome = {
+            // Worn cloths follow their characters' new poses before stepping.
+            for id in world.cloths.ids() {
+                if let Err(e) = super::collider::follow_character(world, id.into())
+                    && followed.is_ok()
+                {
+                    followed = Err(e);
+                }
+            }
             let SlodWorld {
                 pool,
                 budget,
@@ -458,8 +481,8 @@ pub unsafe extern "C" fn slod_world_step(
                         .map(|(id, e)| (cloth_key(id), &mut e.cloth)),
                 );
             });
-            budget.end_frame(frame)
-        };
+        }
+        let outcome = world.budget.end_frame(frame);
         let s = *world.budget.last_stats();
         if !out_stats.is_null() {
             let stats = SlodWorldStepStats {
