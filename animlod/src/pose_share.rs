@@ -96,6 +96,11 @@ pub struct PoseShare {
     /// in the bucket from its centre's.
     deviation: Vec<Vec<Vec<f32>>>,
     entries: HashMap<SharedPose, Entry>,
+    /// Buffers of evicted poses, reused by the next poses skinned: a pose's positions and
+    /// normals are hundreds of kilobytes, which the allocator maps and the kernel zero-fills
+    /// page by page on every fresh allocation (and serialises between threads), so skinning into
+    /// new buffers cost about three times the skinning itself on two threads.
+    spare: Vec<Entry>,
     capacity: usize,
     frame: u64,
     vertices: usize,
@@ -184,6 +189,7 @@ impl PoseShare {
             rig,
             deviation,
             entries: HashMap::new(),
+            spare: Vec::new(),
             capacity,
             frame: 0,
             vertices,
@@ -340,33 +346,40 @@ impl PoseShare {
         let rig = &self.rig;
         let times: Vec<f32> = missing.iter().map(|&p| self.time_of(p)).collect();
         let vertices = self.vertices;
+        // One buffer per pose to skin: an evicted pose's where there is one.
+        let buffers: Vec<Option<Entry>> = (0..missing.len()).map(|_| self.spare.pop()).collect();
         let init = || (Eval::default(), vec![Vec::new(); rig.meshes().len()]);
-        let skin = |(eval, palettes): &mut (Eval, Vec<Vec<Mat4>>),
-                    (&pose, &time): (&SharedPose, &f32)| {
-            eval.palettes(rig, pose.clip, time, palettes);
-            let mut e = Entry {
-                positions: vec![Vec3::ZERO; vertices],
-                normals: vec![Vec3::ZERO; vertices],
-                last_used: 0,
-            };
-            let mut at = 0;
-            for (mesh, palette) in rig.meshes().iter().zip(palettes.iter()) {
-                let v = mesh.vertex_count();
-                SkinningJob {
-                    mesh,
-                    palette,
-                    positions: &mut e.positions[at..at + v],
-                    normals: &mut e.normals[at..at + v],
+        let skin =
+            |(eval, palettes): &mut (Eval, Vec<Vec<Mat4>>),
+             ((&pose, &time), buffer): ((&SharedPose, &f32), Option<Entry>)| {
+                eval.palettes(rig, pose.clip, time, palettes);
+                let mut e = buffer.unwrap_or_else(|| Entry {
+                    positions: vec![Vec3::ZERO; vertices],
+                    normals: vec![Vec3::ZERO; vertices],
+                    last_used: 0,
+                });
+                // Every vertex is overwritten below; the lengths only need to match.
+                e.positions.resize(vertices, Vec3::ZERO);
+                e.normals.resize(vertices, Vec3::ZERO);
+                let mut at = 0;
+                for (mesh, palette) in rig.meshes().iter().zip(palettes.iter()) {
+                    let v = mesh.vertex_count();
+                    SkinningJob {
+                        mesh,
+                        palette,
+                        positions: &mut e.positions[at..at + v],
+                        normals: &mut e.normals[at..at + v],
+                    }
+                    .run()?;
+                    at += v;
                 }
-                .run()?;
-                at += v;
-            }
-            Ok(e)
-        };
+                Ok(e)
+            };
         let skinned: Vec<Result<Entry, CrowdError>> = if self.parallel {
             missing
                 .par_iter()
                 .zip(&times)
+                .zip(buffers)
                 .map_init(init, skin)
                 .collect()
         } else {
@@ -374,6 +387,7 @@ impl PoseShare {
             missing
                 .iter()
                 .zip(&times)
+                .zip(buffers)
                 .map(|x| skin(&mut scratch, x))
                 .collect()
         };
@@ -401,9 +415,14 @@ impl PoseShare {
             old.sort_unstable();
             let excess = self.entries.len() - self.capacity;
             for &(_, p) in old.iter().take(excess) {
-                self.entries.remove(&p);
+                if let Some(e) = self.entries.remove(&p) {
+                    self.spare.push(e);
+                }
                 stats.poses_evicted += 1;
             }
+            // Keep as many spare buffers as one frame's skinning used (a frame that skins more
+            // than it evicted allocates the rest).
+            self.spare.truncate(stats.poses_skinned.max(1) as usize);
         }
         Ok(stats)
     }
@@ -566,6 +585,15 @@ mod tests {
             let (a, b) = (share.skinned(p).unwrap(), other.skinned(p).unwrap());
             assert_eq!(a.0, b.0);
             assert_eq!(a.1, b.1);
+        }
+        // Poses skinned into the buffers of evicted ones are the poses skinned afresh.
+        let more: Vec<SharedPose> = (30..36).map(pose).collect();
+        assert!(!share.spare.is_empty(), "evictions left buffers to reuse");
+        share.prepare(&more).unwrap();
+        let mut fresh = PoseShare::new(rig.clone(), 16, false).unwrap();
+        fresh.prepare(&more).unwrap();
+        for &p in &more {
+            assert_eq!(share.skinned(p), fresh.skinned(p));
         }
     }
 
