@@ -68,6 +68,18 @@ impl ScreenMeter {
 
     /// Adds one frame: `reconstructed[i]` against `reference[i]` (same length).
     pub fn frame(&mut self, reconstructed: &[Vec3], reference: &[Vec3]) {
+        self.add(reconstructed, reference, |_| true);
+    }
+
+    /// [`ScreenMeter::frame`] over the vertices `counted` marks only (same length): the error
+    /// of one part of a surface (say, the vertices coarse nodes cover). A vertex not counted
+    /// this frame counts no pop the next.
+    pub fn frame_masked(&mut self, reconstructed: &[Vec3], reference: &[Vec3], counted: &[bool]) {
+        assert_eq!(counted.len(), reference.len(), "one flag per vertex");
+        self.add(reconstructed, reference, |i| counted[i]);
+    }
+
+    fn add(&mut self, reconstructed: &[Vec3], reference: &[Vec3], counted: impl Fn(usize) -> bool) {
         assert_eq!(
             reconstructed.len(),
             reference.len(),
@@ -76,7 +88,11 @@ impl ScreenMeter {
         self.previous.resize(reference.len(), None);
         let (mut sum_sq, mut count) = (0f64, 0u64);
         for (i, (a, r)) in reconstructed.iter().zip(reference).enumerate() {
-            let error = self.error_px(*a, *r);
+            let error = if counted(i) {
+                self.error_px(*a, *r)
+            } else {
+                None
+            };
             if let (Some(e), Some(p)) = (error, self.previous[i]) {
                 self.pop_max = self.pop_max.max((e - p).length());
             }
@@ -180,5 +196,29 @@ mod tests {
         m.frame(&reference, &reference); // the offset vanishes at once
         let jumped = m.finish();
         assert!((jumped.pop_max_px - calm.max_px).abs() < 1e-3, "{jumped:?}");
+    }
+
+    #[test]
+    fn a_mask_counts_only_its_vertices() {
+        let reference = vec![Vec3::ZERO, Vec3::X * 0.5, Vec3::Y * 0.5];
+        // Vertex 1 is 2 cm off, the others exact.
+        let mut moved = reference.clone();
+        moved[1] += Vec3::Y * 0.02;
+        let (mut all, mut masked, mut rest) = (
+            ScreenMeter::new(view()),
+            ScreenMeter::new(view()),
+            ScreenMeter::new(view()),
+        );
+        all.frame(&moved, &reference);
+        masked.frame_masked(&moved, &reference, &[true, true, true]);
+        assert_eq!(all.finish(), masked.finish());
+        rest.frame_masked(&moved, &reference, &[true, false, true]);
+        assert_eq!(rest.finish(), ScreenError::default());
+        // A vertex leaving the mask and coming back counts no pop.
+        let mut m = ScreenMeter::new(view());
+        m.frame_masked(&moved, &reference, &[false, true, false]);
+        m.frame_masked(&reference, &reference, &[false, false, false]);
+        m.frame_masked(&reference, &reference, &[false, true, false]);
+        assert_eq!(m.finish().pop_max_px, 0.0);
     }
 }

@@ -204,6 +204,7 @@ fn render_runs(outcomes: &[SceneOutcome], config: &PerceptionConfig) -> String {
                 "rms px",
                 "p99 px",
                 "max px",
+                "coarse / fine p99",
                 "pop px",
                 "undone",
             ],
@@ -223,13 +224,19 @@ fn render_runs(outcomes: &[SceneOutcome], config: &PerceptionConfig) -> String {
                 num(r.screen.rms_px, 2),
                 num(r.screen.p99_px, 2),
                 num(r.screen.max_px, 2),
+                r.screen_split.map_or("-".to_string(), |s| {
+                    format!("{} / {}", num(s.coarse.p99_px, 2), num(s.fine.p99_px, 2))
+                }),
                 num(r.screen.pop_max_px, 2),
                 r.undone_fraction().map_or("-".to_string(), |u| pct(u, 1)),
             ]);
         }
         t.note(format!(
             "twin floor (the reference perturbed by 1 µm): rms {} px, max {} px; ms/frame = step + \
-             evaluation + reconstruction (the reference needs none); reconstruct: its share",
+             evaluation + reconstruction (the reference needs none); reconstruct: its share; \
+             coarse / fine p99: at the vertices coarse nodes cover (the error a node's deviation \
+             estimate is about) and at those simulated at the finest level (the drift the coarse \
+             parts' dynamics carry across the cloth)",
             num(o.twin_floor.rms_px, 3),
             num(o.twin_floor.max_px, 3)
         ));

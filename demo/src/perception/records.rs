@@ -58,6 +58,14 @@ pub(crate) struct RunRecord {
     pub(crate) screen_p99_px: f64,
     pub(crate) screen_max_px: f64,
     pub(crate) pop_max_px: Option<f64>,
+    /// p99 and max at the vertices coarse nodes cover (null for the reference): the error the
+    /// on-screen deviation estimate is about.
+    pub(crate) coarse_p99_px: Option<f64>,
+    pub(crate) coarse_max_px: Option<f64>,
+    /// p99 and max at the vertices simulated at the finest level (null for the reference):
+    /// the drift the coarse parts carry across the cloth.
+    pub(crate) fine_p99_px: Option<f64>,
+    pub(crate) fine_max_px: Option<f64>,
     pub(crate) operations: u64,
     pub(crate) undone_fraction: Option<f64>,
     pub(crate) bound_px: Option<f32>,
@@ -96,6 +104,10 @@ fn run(r: &RunResult) -> RunRecord {
         screen_p99_px: r.screen.p99_px,
         screen_max_px: r.screen.max_px,
         pop_max_px: (!is_reference).then_some(r.screen.pop_max_px),
+        coarse_p99_px: r.screen_split.map(|s| s.coarse.p99_px),
+        coarse_max_px: r.screen_split.map(|s| s.coarse.max_px),
+        fine_p99_px: r.screen_split.map(|s| s.fine.p99_px),
+        fine_max_px: r.screen_split.map(|s| s.fine.max_px),
         operations: r.operations,
         undone_fraction: r.undone_fraction(),
         bound_px: r.bound_px,

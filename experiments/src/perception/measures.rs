@@ -87,6 +87,12 @@ pub struct RunResult {
     pub reconstruct_ms: Option<f64>,
     /// On-screen error against the reference (zero for the reference).
     pub screen: ScreenError,
+    /// [`RunResult::screen`] split (`None` for the reference): at the vertices a coarse node
+    /// covers — where the reconstruction interpolates, the error a node's on-screen deviation
+    /// estimate is about — and at the vertices simulated at the finest level, whose error is
+    /// the drift the coarse parts' different dynamics carry across the cloth. (Frame RMS is over
+    /// each part's vertices, so the parts' RMS do not combine into the whole's.)
+    pub screen_split: Option<SplitError>,
     /// Refines and coarses begun.
     pub operations: u64,
     /// Operations that undid one on the same node within 30 steps.
@@ -95,6 +101,16 @@ pub struct RunResult {
     pub bound_px: Option<f32>,
     /// The horizon of a short-horizon measurement (`None`: the whole run).
     pub horizon_steps: Option<u32>,
+}
+
+/// On-screen error at coarse-covered and at finest-simulated vertices (see
+/// [`RunResult::screen_split`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SplitError {
+    /// At vertices a coarse node covers.
+    pub coarse: ScreenError,
+    /// At vertices simulated at the finest level.
+    pub fine: ScreenError,
 }
 
 impl RunResult {
@@ -188,12 +204,27 @@ pub fn record_reference(scene: &Scene, horizon: Option<u32>) -> Result<Reference
             step_ms: 1e3 * seconds / scene.steps as f64,
             reconstruct_ms: None,
             screen: ScreenError::default(),
+            screen_split: None,
             operations: 0,
             undone_operations: 0,
             bound_px: None,
             horizon_steps: None,
         },
     })
+}
+
+/// Marks in `out` (one flag per finest vertex) the vertices a coarse node covers now.
+fn mark_coarse(cloth: &AdaptiveCloth, out: &mut [bool]) {
+    out.fill(false);
+    let body = cloth.body();
+    let h = body.hierarchy();
+    for &node in body.particle_nodes() {
+        if !h.is_leaf(node) {
+            for &v in h.vertices(node) {
+                out[v as usize] = true;
+            }
+        }
+    }
 }
 
 /// Positions (and velocities) of every finest vertex of a full-resolution cloth.
@@ -277,12 +308,16 @@ pub fn run_strategy(
     let mut cloth = scene.cloth(spec.strategy.initial_cut(scene, spec.nodes)?)?;
     cloth.set_feedback(spec.strategy.feedback(spec.nodes, spec.bound_px))?;
     let mut meter = ScreenMeter::new(scene.view(0)?);
+    let (mut coarse_meter, mut fine_meter) = (meter.clone(), meter.clone());
+    let mut coarse = vec![false; reference.vertex_count];
     let mut vertices = vec![Vec3::ZERO; reference.vertex_count];
     let (mut nodes, mut step_s, mut reconstruct_s) = (0f64, 0f64, 0f64);
     for step in 0..scene.steps {
         if let Some(state) = spec.horizon.and_then(|_| reference.state(step)) {
             restart_from(&mut cloth, state)?;
             meter.restart_sequence();
+            coarse_meter.restart_sequence();
+            fine_meter.restart_sequence();
         }
         scene.drive(&mut cloth, step)?;
         let view = scene.view(step)?;
@@ -295,6 +330,12 @@ pub fn run_strategy(
         nodes += cloth.node_count() as f64;
         meter.set_view(view);
         meter.frame(&vertices, reference.frame(step));
+        mark_coarse(&cloth, &mut coarse);
+        coarse_meter.set_view(view);
+        coarse_meter.frame_masked(&vertices, reference.frame(step), &coarse);
+        coarse.iter_mut().for_each(|c| *c = !*c);
+        fine_meter.set_view(view);
+        fine_meter.frame_masked(&vertices, reference.frame(step), &coarse);
         if let Some(o) = observer.as_mut() {
             o(step, &cloth, &vertices);
         }
@@ -307,6 +348,10 @@ pub fn run_strategy(
         step_ms: 1e3 * step_s / steps,
         reconstruct_ms: Some(1e3 * reconstruct_s / steps),
         screen: meter.finish(),
+        screen_split: Some(SplitError {
+            coarse: coarse_meter.finish(),
+            fine: fine_meter.finish(),
+        }),
         operations: stats.refines + stats.coarses,
         undone_operations: stats.undone_ops,
         bound_px: (spec.strategy == Strategy::ErrorBound).then_some(spec.bound_px),

@@ -25,8 +25,8 @@ use slod::cloth::{ClothError, compression_nodes};
 
 pub use equal::{CostPoint, uniform_cost_at};
 pub use measures::{
-    Reference, RunResult, RunSpec, TWIN_PERTURBATION_M, perturbed_twin, record_reference,
-    run_strategy, twin_floor,
+    Reference, RunResult, RunSpec, SplitError, TWIN_PERTURBATION_M, perturbed_twin,
+    record_reference, run_strategy, twin_floor,
 };
 pub use scenes::{FOV_Y_DEG, MEASURE_HEIGHT_PX, MEASURE_WIDTH_PX, Scene, SceneScale};
 pub use strategies::Strategy;
