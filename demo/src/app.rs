@@ -294,8 +294,8 @@ fn summary(report: &Report<'_>, dir: &Path, files: &[String], total_s: f64) -> S
                     num(c.target_step_ms as f64, 3)
                 ),
                 format!(
-                    "{} ms mean, {} once settled ({}; >= 95% of windows within 10% {}), {} \
-                     nodes, rms error {}",
+                    "{} ms mean, {} once settled ({}; >= 95% of windows within 10% {}; fixed \
+                     work: {} of windows within 10% of their median), {} nodes, rms error {}",
                     num(r.ms_per_step, 3),
                     r.ms_per_step_settled.map_or("-".into(), |m| num(m, 3)),
                     r.settled_after_steps
@@ -304,6 +304,8 @@ fn summary(report: &Report<'_>, dir: &Path, files: &[String], total_s: f64) -> S
                         "from step {s}: {}",
                         pct(r.within_10pct_fraction.unwrap_or(0.0), 0)
                     )),
+                    r.fixed_work_within_10pct_fraction
+                        .map_or("-".into(), |f| pct(f, 0)),
                     num(r.nodes, 0),
                     pct(r.rms_error_fraction as f64, 2)
                 ),

@@ -122,6 +122,10 @@ pub(crate) struct RunReport {
     /// Time-budget run only: fraction of those windows within ±10% from `reached_after_steps`
     /// on (over the whole run if never).
     pub(crate) within_10pct_fraction: Option<f64>,
+    /// Time-budget run only: of the full-resolution reference's windows (fixed work), the
+    /// fraction within ±10% of their median: the machine's own jitter during the run, the most
+    /// a wall-clock controller could hold.
+    pub(crate) fixed_work_within_10pct_fraction: Option<f64>,
 }
 
 /// One line of Table 2: ours, the paper's or Bullet's (measured on this host).
@@ -228,6 +232,9 @@ pub(super) fn run_report(r: &NetRun, report: &NetReport, interval: u32) -> RunRe
     let reference_ms = report
         .run(NetRunKind::Reference)
         .map_or(f64::NAN, |x| x.ms_per_step);
+    let jitter = report
+        .run(NetRunKind::Reference)
+        .map(|x| x.windows_within_10pct_of_median(interval as usize));
     let mm = report.diagonal * 1e3;
     let frame_ms = match r.kind {
         NetRunKind::Reference => r.ms_per_step,
@@ -271,5 +278,6 @@ pub(super) fn run_report(r: &NetRun, report: &NetReport, interval: u32) -> RunRe
         ms_per_step_settled: settling.map(|s| s.mean_ms_after),
         reached_after_steps: settling.and_then(|s| s.reached_at),
         within_10pct_fraction: settling.map(|s| s.within_fraction),
+        fixed_work_within_10pct_fraction: settling.and(jitter),
     }
 }

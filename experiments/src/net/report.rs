@@ -76,6 +76,26 @@ pub struct Settling {
 }
 
 impl NetRun {
+    /// Of this run's windows of `window` steps, the fraction whose mean step time is within
+    /// ±10% of the windows' median. On a run of fixed work (the full-resolution reference) it
+    /// is the machine's own jitter: the most any controller of the wall clock could hold.
+    pub fn windows_within_10pct_of_median(&self, window: usize) -> f64 {
+        let means: Vec<f64> = self
+            .step_ms
+            .chunks(window.max(1))
+            .map(|c| c.iter().map(|&x| x as f64).sum::<f64>() / c.len() as f64)
+            .collect();
+        if means.is_empty() {
+            return 0.0;
+        }
+        let median = crate::world::quantile(&means, 0.5);
+        means
+            .iter()
+            .filter(|&&m| (m - median).abs() <= 0.1 * median)
+            .count() as f64
+            / means.len() as f64
+    }
+
     /// How the run's step times held `target_ms`, in windows of `window` steps (the feedback
     /// interval: per-step times swing with the evaluation inside each interval).
     pub fn settling(&self, target_ms: f32, window: usize) -> Settling {
