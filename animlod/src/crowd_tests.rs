@@ -479,3 +479,52 @@ fn a_character_showing_a_shared_pose_is_skipped_and_evaluated_in_full_when_it_st
         );
     }
 }
+
+/// The error-bound mode never costs more than LOD off: 20 GDBot characters 5–62 m away at a
+/// 1 px bound pick nearly every bone one by one, which the cost model prices at LOD off's
+/// cost or more, so the next 30 frames take LOD off's path (every bone, LOD off's exact poses)
+/// and then it tries again; at 3 px the bound is cheaper and never falls back.
+#[test]
+fn a_dear_error_bound_takes_lod_offs_path() {
+    let rig = gdbot();
+    let clip = walk(&rig);
+    let all = 20 * rig.clip(clip).unwrap().animated_bone_count() as u64;
+    let cam = View::new(
+        Vec3::new(0.0, 1.0, 0.0),
+        Vec3::NEG_Z,
+        Vec3::Y,
+        60f32.to_radians(),
+        1920,
+        1080,
+    )
+    .unwrap();
+    let make = |lod| {
+        let mut c = Crowd::new(rig.clone());
+        for k in 0..20 {
+            let at = Vec3::new((k % 5) as f32 - 2.0, 0.0, -5.0 - 3.0 * k as f32);
+            let id = c.add_character(at, clip).unwrap();
+            c.set_time(id, 0.1 * k as f32).unwrap();
+        }
+        c.set_lod(lod).unwrap();
+        c
+    };
+    let mut off = make(LodMode::Off);
+    let mut dear = make(LodMode::ErrorBound { max_error_px: 1.0 });
+    let mut cheap = make(LodMode::ErrorBound { max_error_px: 3.0 });
+    let (mut lod_off_frames, mut bound_frames) = (0, 0);
+    for _ in 0..70 {
+        off.advance(1.0 / 60.0, &cam).unwrap();
+        let st = dear.advance(1.0 / 60.0, &cam).unwrap();
+        if st.bones_interpolated == all {
+            lod_off_frames += 1;
+            assert_eq!(snapshot(&dear), snapshot(&off));
+        } else {
+            bound_frames += 1;
+        }
+        assert!(cheap.advance(1.0 / 60.0, &cam).unwrap().bones_interpolated < all);
+    }
+    assert!(
+        lod_off_frames >= 30 && bound_frames >= 2,
+        "{lod_off_frames} / {bound_frames}"
+    );
+}

@@ -50,7 +50,10 @@ pub enum LodMode {
     /// a bound. Each animated bone integrates its measured hold error rate
     /// (the priority table\'s `hold_error_rate`) over the time it holds, converts it to pixels
     /// at the character's nearest visible depth, and interpolates as soon as that reaches
-    /// `max_error_px`. Invisible characters do not animate.
+    /// `max_error_px`. Invisible characters do not animate. Like the budget, it never costs more
+    /// than LOD off: a frame whose work and bookkeeping the crowd's cost model prices at LOD
+    /// off's or more sends the next 30 frames down LOD off's path (exact poses of the characters
+    /// in view).
     ErrorBound {
         /// Largest on-screen drift (pixels) a single held bone may cause.
         max_error_px: f32,

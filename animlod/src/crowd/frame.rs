@@ -255,6 +255,18 @@ impl Crowd {
             }
             _ => None,
         };
+        // Error-bound mode: the same rule as the budget's. A frame whose work and bookkeeping
+        // the cost model prices at LOD off's or more sends the next frames down LOD off's path
+        // (exact poses: no error, less work), so the mode never costs more than LOD off.
+        let mut error_bound_lod_off = false;
+        if let LodMode::ErrorBound { .. } = lod {
+            let (_, full_cost, slots) = self.lod_off_price();
+            lod_off = (full_cost, slots);
+            if self.budget_lod_off_frames > 0 {
+                self.budget_lod_off_frames -= 1;
+                error_bound_lod_off = true;
+            }
+        }
         let mut partial_left = budget.map_or(0, |b| b.1);
         // Rotate the starting character each frame so that no character is always first to the
         // budget's last, partially admitted score bin.
@@ -268,6 +280,7 @@ impl Crowd {
         let shared = Shared {
             rig: &self.rig,
             lod: self.lod,
+            lod_off: error_bound_lod_off,
             params: &self.params,
             tables: &self.tables,
             stage_timing: self.stage_timing,
@@ -278,7 +291,7 @@ impl Crowd {
             // Characters are independent outside budget mode: chunks of them run on the rayon
             // pool, each with its own scratch; the stats are summed in chunk order, so the
             // poses and counts equal a serial run's.
-            let per_chunk: Vec<FrameStats> = self
+            let per_chunk: Vec<(FrameStats, u64)> = self
                 .chars
                 .par_chunks_mut(PARALLEL_CHUNK)
                 .zip(self.locals.par_chunks_mut(PARALLEL_CHUNK * stride))
@@ -288,7 +301,7 @@ impl Crowd {
                 .map_init(
                     || Scratch::new(shared.bones),
                     |s, ((((chars, locals), models), last), drift)| {
-                        let mut sum = FrameStats::default();
+                        let (mut sum, mut cost) = (FrameStats::default(), 0u64);
                         for (i, c) in chars.iter_mut().enumerate() {
                             let r = i * stride..i * stride + shared.bones;
                             let lanes = Lanes {
@@ -297,17 +310,21 @@ impl Crowd {
                                 last: &mut last[r.clone()],
                                 drift: &mut drift[r],
                             };
-                            let st = advance_character(&shared, c, lanes, s, None, &mut 0, &mut 0);
+                            let st =
+                                advance_character(&shared, c, lanes, s, None, &mut 0, &mut cost);
                             c.changed = st.bones_concatenated > 0;
                             sum += st;
                         }
-                        sum
+                        (sum, cost)
                     },
                 )
                 .collect();
-            for st in per_chunk {
+            let mut cost = 0u64;
+            for (st, c) in per_chunk {
                 stats += st;
+                cost += c;
             }
+            self.price_error_bound(cost, lod_off, error_bound_lod_off);
         } else {
             let bins = std::mem::take(&mut self.scratch.bins);
             let top = std::mem::take(&mut self.scratch.top_bin);
@@ -348,9 +365,22 @@ impl Crowd {
                     self.budget_lod_off_frames = BUDGET_RETRY_FRAMES;
                 }
             }
+            self.price_error_bound(cost, lod_off, error_bound_lod_off);
         }
         self.last_stats = stats;
         Ok(stats)
+    }
+
+    /// Error-bound mode, after a frame that was not on LOD off's path: if the cost model priced
+    /// its work (`cost`) and its bookkeeping per animated bone at LOD off's price or more, the
+    /// next [`BUDGET_RETRY_FRAMES`] frames take LOD off's path.
+    fn price_error_bound(&mut self, cost: u64, (lod_off_cost, slots): (u64, u64), was_off: bool) {
+        if matches!(self.lod, LodMode::ErrorBound { .. })
+            && !was_off
+            && cost + BUDGET_SCORE_COST * slots >= lod_off_cost
+        {
+            self.budget_lod_off_frames = BUDGET_RETRY_FRAMES;
+        }
     }
 }
 
@@ -393,8 +423,8 @@ const BLOCK_CONCAT_COST: u64 = 31;
 /// bin, the histogram and the admission (measured with a budget that admits nothing).
 const BUDGET_SCORE_COST: u64 = 15;
 
-/// After a budget frame the cost model priced at LOD off's cost or more, the budget mode runs
-/// LOD off's path (exact poses, less work) for this many frames, then tries the budget again.
+/// After a budget (or error-bound) frame the cost model priced at LOD off's cost or more, the
+/// mode runs LOD off's path (exact poses, less work) for this many frames, then tries again.
 const BUDGET_RETRY_FRAMES: u32 = 30;
 
 /// Characters per parallel task (enough work per task to outweigh scheduling).
@@ -404,6 +434,9 @@ const PARALLEL_CHUNK: usize = 32;
 struct Shared<'a> {
     rig: &'a Rig,
     lod: LodMode,
+    /// Every character takes LOD off's path this frame (an error bound the cost model found
+    /// dearer than LOD off, see [`BUDGET_RETRY_FRAMES`]).
+    lod_off: bool,
     params: &'a SchedulerParams,
     tables: &'a [Vec<f32>],
     stage_timing: bool,
@@ -457,8 +490,12 @@ fn advance_character(
         _ => None,
     };
     let slots = clip.animated.len();
-    let mut full = budget.is_none() && error_bound.is_none() && c.omega >= 1.0;
-    if budget.is_none() && error_bound.is_none() && c.omega <= 0.0 {
+    // On LOD off's path an error bound still leaves invisible characters still (as it would).
+    let mut full = (sh.lod_off && c.near_ppu > 0.0)
+        || (budget.is_none() && error_bound.is_none() && c.omega >= 1.0);
+    if (sh.lod_off && c.near_ppu <= 0.0)
+        || (budget.is_none() && error_bound.is_none() && c.omega <= 0.0)
+    {
         st.bones_held = animated;
         st.characters_frozen = 1;
         return st;

@@ -272,8 +272,8 @@ pub struct Crowd {
     parallel: bool,
     /// Frames advanced (rotates the budget's processing order).
     frame: u64,
-    /// Budget mode: frames left that take LOD off's path because the cost model priced the
-    /// budget's last frame at LOD off's cost or more.
+    /// Budget and error-bound modes: frames left that take LOD off's path because the cost
+    /// model priced the mode's last frame at LOD off's cost or more.
     budget_lod_off_frames: u32,
     scratch: Scratch,
 }
