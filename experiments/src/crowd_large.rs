@@ -918,6 +918,8 @@ struct Whole {
     share: Option<PoseShare>,
     /// Characters that showed a shared pose in the last frame.
     shared_last: u64,
+    /// Per shard, its characters' range in `chars` (they are stored shard by shard).
+    spans: Vec<std::ops::Range<usize>>,
 }
 
 impl Whole {
@@ -926,7 +928,9 @@ impl Whole {
         let layouts = held_layouts(rig)?;
         let vertices: usize = rig.meshes().iter().map(|m| m.vertex_count()).sum();
         let mut chars = Vec::with_capacity(setup.characters);
+        let mut spans = Vec::with_capacity(s.ids.len());
         for (shard, ids) in s.ids.iter().enumerate() {
+            spans.push(chars.len()..chars.len() + ids.len());
             for &id in ids {
                 chars.push(HostCharacter {
                     shard,
@@ -947,6 +951,7 @@ impl Whole {
             held_px,
             predict: setup.held_joints_predict,
             shared_last: 0,
+            spans,
             share: match (held_px, setup.shared_poses_mib) {
                 (Some(_), Some(mib)) => {
                     let mut share = PoseShare::new(rig.clone(), 1, true)?;
@@ -958,7 +963,11 @@ impl Whole {
         })
     }
 
-    /// One frame (in parallel on the current pool); returns the vertices skinned.
+    /// One frame (in parallel on the current pool); returns the vertices skinned. The shards
+    /// advance; the characters choose their shared poses; then the shared poses are skinned
+    /// beside the crowds being told who shares (each shard its own characters) and every other
+    /// character being skinned (a character's own skinning does not read the shared poses):
+    /// fewer regions, fewer times a thread waits for the others or for the host to wake it.
     fn frame(&mut self, rig: &Rig, dt: f32, view: &View) -> Result<u64, CrowdError> {
         self.s
             .shards
@@ -969,11 +978,11 @@ impl Whole {
             max_error_px,
             predict: self.predict,
         });
-        let mut shared_vertices = 0;
+        let mut used = Vec::new();
         if let (Some(share), Some(px)) = (&mut self.share, self.held_px) {
             let shards = &self.s.shards;
             // Which characters may show their phase bucket's pose (a pure function of each
-            // character), then those poses, skinned once for all who share them.
+            // character); their poses are skinned once for all who share them, below.
             let share_ref = &*share;
             let poses: Vec<Result<Option<SharedPose>, CrowdError>> = self
                 .chars
@@ -991,48 +1000,59 @@ impl Whole {
                 c.shared = p;
             }
             self.shared_last = self.chars.iter().filter(|c| c.shared.is_some()).count() as u64;
-            let used: Vec<SharedPose> = self.chars.iter().filter_map(|c| c.shared).collect();
-            shared_vertices = share.prepare(&used)?.vertices_skinned;
-            // The crowds skip the poses of characters that show a shared one (and evaluate
-            // those that stop sharing at once).
-            let chars = &self.chars;
-            self.s
-                .shards
-                .par_iter_mut()
-                .enumerate()
-                .try_for_each(|(s, crowd)| {
-                    chars
-                        .iter()
-                        .filter(|c| c.shard == s)
-                        .try_for_each(|c| crowd.set_pose_shared(c.id, c.shared.is_some()))
-                })?;
+            used = self.chars.iter().filter_map(|c| c.shared).collect();
         }
-        let shards = &self.s.shards;
-        let done: Vec<Result<u64, CrowdError>> = self
-            .chars
-            .par_iter_mut()
-            .map_init(Vec::new, |palette, c| {
-                let crowd = &shards[c.shard];
-                Ok(match spec {
-                    Some(_) if c.shared.is_some() => {
-                        // Shows a shared pose: its own output goes stale.
-                        c.states.iter_mut().for_each(HeldSkin::reset);
-                        0
-                    }
-                    Some(spec) => {
-                        skin_held(rig, crowd, c.id, spec, &mut c.states, palette, &mut c.out)?.2
-                    }
-                    None => {
-                        skin_meshes(rig, palette, &mut c.out, |skin, p| {
-                            crowd.skinning_matrices(c.id, skin, p)
-                        })?;
-                        c.out.0.len() as u64
-                    }
+        let shards = &mut self.s.shards;
+        let chars = &mut self.chars;
+        let spans = &self.spans;
+        let share = &mut self.share;
+        let sharing = share.is_some();
+        let mut skin_all = || -> Result<Vec<Result<u64, CrowdError>>, CrowdError> {
+            if sharing {
+                // The crowds skip the poses of characters that show a shared one, and evaluate
+                // those that stop sharing at once (their own pose is skinned just below).
+                let flags = &*chars;
+                shards
+                    .par_iter_mut()
+                    .zip(spans.par_iter())
+                    .try_for_each(|(crowd, span)| {
+                        flags[span.clone()]
+                            .iter()
+                            .try_for_each(|c| crowd.set_pose_shared(c.id, c.shared.is_some()))
+                    })?;
+            }
+            let shards = &*shards;
+            Ok(chars
+                .par_iter_mut()
+                .map_init(Vec::new, |palette, c| {
+                    let crowd = &shards[c.shard];
+                    Ok(match spec {
+                        Some(_) if c.shared.is_some() => {
+                            // Shows a shared pose: its own output goes stale.
+                            c.states.iter_mut().for_each(HeldSkin::reset);
+                            0
+                        }
+                        Some(spec) => {
+                            skin_held(rig, crowd, c.id, spec, &mut c.states, palette, &mut c.out)?.2
+                        }
+                        None => {
+                            skin_meshes(rig, palette, &mut c.out, |skin, p| {
+                                crowd.skinning_matrices(c.id, skin, p)
+                            })?;
+                            c.out.0.len() as u64
+                        }
+                    })
                 })
-            })
-            .collect();
-        done.into_iter()
-            .try_fold(shared_vertices, |a, d| Ok(a + d?))
+                .collect())
+        };
+        let (prepared, done) = match share {
+            Some(share) => {
+                let (p, d) = rayon::join(|| share.prepare(&used), skin_all);
+                (p?.vertices_skinned, d?)
+            }
+            None => (0, skin_all()?),
+        };
+        done.into_iter().try_fold(prepared, |a, d| Ok(a + d?))
     }
 
     /// A character's skinned positions and normals this frame (its shared pose's if it shows
