@@ -48,6 +48,11 @@ fn view() -> View {
     .unwrap()
 }
 
+/// A 1920×1080 camera at `eye` looking down −z, 60° field of view.
+fn looking_down_z(eye: Vec3) -> View {
+    View::new(eye, Vec3::NEG_Z, Vec3::Y, 60f32.to_radians(), 1920, 1080).unwrap()
+}
+
 fn snapshot(c: &Crowd) -> Vec<(CharacterId, f32, Vec<Mat4>)> {
     c.character_ids()
         .map(|id| {
@@ -310,15 +315,7 @@ fn error_bound_holds_per_bone_drift_under_the_bound() {
     // `max_error_px` on screen (chains of held bones add up, so the total is checked loosely).
     let rig = gdbot();
     let (mut c, ids) = crowd(&rig, 1);
-    let cam = View::new(
-        Vec3::new(0.0, 1.0, 30.0),
-        Vec3::NEG_Z,
-        Vec3::Y,
-        60f32.to_radians(),
-        1920,
-        1080,
-    )
-    .unwrap();
+    let cam = looking_down_z(Vec3::new(0.0, 1.0, 30.0));
     c.set_lod(LodMode::ErrorBound { max_error_px: 1.0 })
         .unwrap();
     let mut held = 0;
@@ -344,15 +341,7 @@ fn budget_caps_updates_and_favours_the_near_character() {
     let far = c.add_character(Vec3::new(0.0, 0.0, -60.0), clip).unwrap();
     c.set_time(far, 0.3).unwrap();
     c.set_time(near, 0.3).unwrap();
-    let cam = View::new(
-        Vec3::new(0.0, 1.0, 0.0),
-        Vec3::NEG_Z,
-        Vec3::Y,
-        60f32.to_radians(),
-        1920,
-        1080,
-    )
-    .unwrap();
+    let cam = looking_down_z(Vec3::new(0.0, 1.0, 0.0));
     // An eighth of the two characters' bones: under what LOD off's path would cost (a sixth).
     let budget = (animated / 4).max(1);
     c.set_lod(LodMode::Budget {
@@ -489,15 +478,7 @@ fn a_dear_error_bound_takes_lod_offs_path() {
     let rig = gdbot();
     let clip = walk(&rig);
     let all = 20 * rig.clip(clip).unwrap().animated_bone_count() as u64;
-    let cam = View::new(
-        Vec3::new(0.0, 1.0, 0.0),
-        Vec3::NEG_Z,
-        Vec3::Y,
-        60f32.to_radians(),
-        1920,
-        1080,
-    )
-    .unwrap();
+    let cam = looking_down_z(Vec3::new(0.0, 1.0, 0.0));
     let make = |lod| {
         let mut c = Crowd::new(rig.clone());
         for k in 0..20 {
