@@ -8,6 +8,8 @@
 //! level-1 nodes refined in a scattered order until the count is reached). `tc_75_blending`
 //! keeps about 25 transitions in flight, as the paper's runs did.
 //! Times are the thread's CPU time (`support/cpu_time.rs`), robust to a shared machine.
+//! `reconstruct tc_30/*` times a step and the smooth reconstruction a renderer reads after it
+//! (the step alone is `tc_30`).
 #[path = "support/cpu_time.rs"]
 mod cpu_time;
 
@@ -143,6 +145,46 @@ fn bench(c: &mut Criterion<ThreadTime>) {
         body.transitions_in_flight()
     );
     after_operations(c);
+    reconstruction(c);
+}
+
+/// The smooth reconstruction a renderer pays every frame, on the paper's net at 30 % of the
+/// nodes (a scattered mixed cut, so most particles need a rotation): `steady` re-reads a body
+/// whose topology did not change (the weight table is kept; each iteration steps first, so the
+/// rotations' warm starts are one step old, as in a run), `after_operation` a body that began a
+/// refine or coarse since (the table is rebuilt). Throughput: finest vertices.
+fn reconstruction(c: &mut Criterion<ThreadTime>) {
+    let mut group = c.benchmark_group("reconstruct tc_30");
+    let mut body = tc(0.30);
+    let mut out = vec![Vec3::ZERO; body.hierarchy().vertex_count()];
+    group.throughput(Throughput::Elements(out.len() as u64));
+    group.bench_function("steady", |b| {
+        b.iter(|| {
+            body.step();
+            body.reconstruct(black_box(&mut out)).unwrap();
+        });
+    });
+    let order = scattered(body.hierarchy(), 1);
+    let mut next = 0usize;
+    group.bench_function("after_operation", |b| {
+        b.iter(|| {
+            for _ in 0..order.len() {
+                let p = order[next % order.len()];
+                next += 1;
+                let ok = if body.cut().is_on_cut(p) {
+                    body.begin_refine(p)
+                } else {
+                    body.begin_coarse(p)
+                };
+                if ok.is_ok() {
+                    break;
+                }
+            }
+            body.step();
+            body.reconstruct(black_box(&mut out)).unwrap();
+        });
+    });
+    group.finish();
 }
 
 /// A 75 % cut reached by operations (from the uniform level-1 cut: scattered level-1 nodes
