@@ -83,6 +83,23 @@ fn tc(fraction: f32) -> TreeCutSoftBody {
     tc
 }
 
+/// Begins a refine or a coarse on the next node of `order` (from `*next` on, cyclically) that
+/// takes one.
+fn begin_next(body: &mut TreeCutSoftBody, order: &[NodeId], next: &mut usize) {
+    for _ in 0..order.len() {
+        let p = order[*next % order.len()];
+        *next += 1;
+        let ok = if body.cut().is_on_cut(p) {
+            body.begin_refine(p)
+        } else {
+            body.begin_coarse(p)
+        };
+        if ok.is_ok() {
+            break;
+        }
+    }
+}
+
 fn bench(c: &mut Criterion<ThreadTime>) {
     let s = spec();
     let g = GridCloth {
@@ -125,18 +142,7 @@ fn bench(c: &mut Criterion<ThreadTime>) {
     let label = format!("tc_75_blending ({} nodes)", body.particle_count());
     c.bench_function(&label, |b| {
         b.iter(|| {
-            for _ in 0..order.len() {
-                let p = order[next % order.len()];
-                next += 1;
-                let ok = if body.cut().is_on_cut(p) {
-                    body.begin_refine(p)
-                } else {
-                    body.begin_coarse(p)
-                };
-                if ok.is_ok() {
-                    break;
-                }
-            }
+            begin_next(&mut body, &order, &mut next);
             black_box(&mut body).step();
         });
     });
@@ -168,18 +174,7 @@ fn reconstruction(c: &mut Criterion<ThreadTime>) {
     let mut next = 0usize;
     group.bench_function("after_operation", |b| {
         b.iter(|| {
-            for _ in 0..order.len() {
-                let p = order[next % order.len()];
-                next += 1;
-                let ok = if body.cut().is_on_cut(p) {
-                    body.begin_refine(p)
-                } else {
-                    body.begin_coarse(p)
-                };
-                if ok.is_ok() {
-                    break;
-                }
-            }
+            begin_next(&mut body, &order, &mut next);
             body.step();
             body.reconstruct(black_box(&mut out)).unwrap();
         });
