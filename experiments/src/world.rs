@@ -539,6 +539,20 @@ pub fn quantile(values: &[f64], q: f64) -> f64 {
     *v.select_nth_unstable_by(k, f64::total_cmp).1
 }
 
+/// The fraction of `values` within ±10% of their median (0 when empty): on times of fixed
+/// work, the machine's own jitter.
+pub fn within_10pct_of_median(values: &[f64]) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    let median = quantile(values, 0.5);
+    values
+        .iter()
+        .filter(|&&v| (v - median).abs() <= 0.1 * median)
+        .count() as f64
+        / values.len() as f64
+}
+
 /// One object over a run.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ObjectSummary {
@@ -919,15 +933,7 @@ pub fn run_world(
     let crowd = crowd_error.finish();
     let median_ratio = (!serial.is_empty() && !par.is_empty())
         .then(|| quantile(&serial, 0.5) / quantile(&par, 0.5));
-    let par_median = quantile(&par, 0.5);
-    let fixed_within = if par.is_empty() {
-        0.0
-    } else {
-        par.iter()
-            .filter(|&&ms| (ms - par_median).abs() <= 0.1 * par_median)
-            .count() as f64
-            / par.len() as f64
-    };
+    let fixed_within = within_10pct_of_median(&par);
     let reference_ms_serial = mean(serial.into_iter()).unwrap_or(0.0);
     let reference_ms_parallel = mean(par.into_iter()).unwrap_or(0.0);
     Ok(WorldReport {

@@ -80,31 +80,22 @@ impl NetRun {
     /// ±10% of the windows' median. On a run of fixed work (the full-resolution reference) it
     /// is the machine's own jitter: the most any controller of the wall clock could hold.
     pub fn windows_within_10pct_of_median(&self, window: usize) -> f64 {
-        let means: Vec<f64> = self
-            .step_ms
+        crate::world::within_10pct_of_median(&self.window_means(window))
+    }
+
+    /// Mean step time (ms) of each window of `window` steps (the last may be shorter).
+    fn window_means(&self, window: usize) -> Vec<f64> {
+        self.step_ms
             .chunks(window.max(1))
             .map(|c| c.iter().map(|&x| x as f64).sum::<f64>() / c.len() as f64)
-            .collect();
-        if means.is_empty() {
-            return 0.0;
-        }
-        let median = crate::world::quantile(&means, 0.5);
-        means
-            .iter()
-            .filter(|&&m| (m - median).abs() <= 0.1 * median)
-            .count() as f64
-            / means.len() as f64
+            .collect()
     }
 
     /// How the run's step times held `target_ms`, in windows of `window` steps (the feedback
     /// interval: per-step times swing with the evaluation inside each interval).
     pub fn settling(&self, target_ms: f32, window: usize) -> Settling {
         let window = window.max(1);
-        let means: Vec<f64> = self
-            .step_ms
-            .chunks(window)
-            .map(|c| c.iter().map(|&x| x as f64).sum::<f64>() / c.len() as f64)
-            .collect();
+        let means = self.window_means(window);
         let ok = |m: f64| (m - target_ms as f64).abs() <= 0.1 * target_ms as f64;
         let first_ok_window = means
             .iter()
