@@ -230,8 +230,9 @@ impl Crowd {
             return Ok(stats);
         }
         let mut stats = FrameStats::default();
-        // Budget mode: the cost model's price of LOD off's path and the bones scored.
-        let mut lod_off = (0u64, 0u64);
+        // A frame of the budget or error-bound mode that does not take LOD off's path: the cost
+        // model's price of LOD off's path and the bones scored, to price this frame against.
+        let mut priced: Option<(u64, u64)> = None;
         let budget = match lod {
             // A budget that affords every character through the block path takes LOD off's
             // path (one block pass per character, no scores, no error): the budget mode does no
@@ -244,8 +245,8 @@ impl Crowd {
                 bone_updates_per_frame,
             } => {
                 let (full, full_cost, slots) = self.lod_off_price();
-                lod_off = (full_cost, slots);
                 if (bone_updates_per_frame as u64) < full && self.budget_lod_off_frames == 0 {
+                    priced = Some((full_cost, slots));
                     Some(self.budget_cut(bone_updates_per_frame))
                 } else {
                     self.budget_lod_off_frames = self.budget_lod_off_frames.saturating_sub(1);
@@ -260,11 +261,12 @@ impl Crowd {
         // (exact poses: no error, less work), so the mode never costs more than LOD off.
         let mut error_bound_lod_off = false;
         if let LodMode::ErrorBound { .. } = lod {
-            let (_, full_cost, slots) = self.lod_off_price();
-            lod_off = (full_cost, slots);
             if self.budget_lod_off_frames > 0 {
                 self.budget_lod_off_frames -= 1;
                 error_bound_lod_off = true;
+            } else {
+                let (_, full_cost, slots) = self.lod_off_price();
+                priced = Some((full_cost, slots));
             }
         }
         let mut partial_left = budget.map_or(0, |b| b.1);
@@ -324,7 +326,7 @@ impl Crowd {
                 stats += st;
                 cost += c;
             }
-            self.price_error_bound(cost, lod_off, error_bound_lod_off);
+            self.retry_lod_off_if_dear(cost, priced);
         } else {
             let bins = std::mem::take(&mut self.scratch.bins);
             let top = std::mem::take(&mut self.scratch.top_bin);
@@ -359,24 +361,18 @@ impl Crowd {
             }
             self.scratch.bins = bins;
             self.scratch.top_bin = top;
-            if budget.is_some() {
-                let (lod_off_cost, slots) = lod_off;
-                if cost + BUDGET_SCORE_COST * slots >= lod_off_cost {
-                    self.budget_lod_off_frames = BUDGET_RETRY_FRAMES;
-                }
-            }
-            self.price_error_bound(cost, lod_off, error_bound_lod_off);
+            self.retry_lod_off_if_dear(cost, priced);
         }
         self.last_stats = stats;
         Ok(stats)
     }
 
-    /// Error-bound mode, after a frame that was not on LOD off's path: if the cost model priced
-    /// its work (`cost`) and its bookkeeping per animated bone at LOD off's price or more, the
-    /// next [`BUDGET_RETRY_FRAMES`] frames take LOD off's path.
-    fn price_error_bound(&mut self, cost: u64, (lod_off_cost, slots): (u64, u64), was_off: bool) {
-        if matches!(self.lod, LodMode::ErrorBound { .. })
-            && !was_off
+    /// After a budget or error-bound frame that was not on LOD off's path (`priced`: LOD off's
+    /// price and the bones scored): if the cost model priced its work (`cost`) and its
+    /// bookkeeping per animated bone at LOD off's price or more, the next
+    /// [`BUDGET_RETRY_FRAMES`] frames take LOD off's path.
+    fn retry_lod_off_if_dear(&mut self, cost: u64, priced: Option<(u64, u64)>) {
+        if let Some((lod_off_cost, slots)) = priced
             && cost + BUDGET_SCORE_COST * slots >= lod_off_cost
         {
             self.budget_lod_off_frames = BUDGET_RETRY_FRAMES;
