@@ -15,13 +15,18 @@
 //!   random direction), measured against the reference: the error no reduced cut can beat.
 //! - Cost: step (evaluation included) + reconstruction per frame, with the reconstruction's
 //!   share, since a renderer pays it every frame and the full-resolution cloth does not.
+//!   Every run (the reference too) runs on a rayon pool of one thread of its own and its cost
+//!   is that thread's CPU time: like for like (the reference's 129² cloths split their colour
+//!   batches over every core of the global pool, and the salience evaluation splits its nodes,
+//!   while a 30% cut's batches are too small to split, so wall time compared two cores with
+//!   one), and the same whether the runs of a scene share the cores or not
+//!   ([`super::PerceptionConfig::parallel`]) and whatever else the machine runs.
 //!
 //! Based on: the on-screen error of `screen.rs`, and the definitions (short-horizon
 //! error as in shadowing studies of chaotic simulations: compare over horizons shorter than the
 //! divergence time).
 
-use std::time::Instant;
-
+use cpu_time::ThreadTime;
 use glam::{Vec3, Vec4};
 use slod::cloth::{AdaptiveCloth, ClothError};
 use softbody::ParticleId;
@@ -81,9 +86,10 @@ pub struct RunResult {
     pub strategy: Strategy,
     /// Mean simulated nodes per step.
     pub nodes: f64,
-    /// Mean wall time of a step, evaluation included, ms.
+    /// Mean CPU time of a step, evaluation included, on one thread, ms.
     pub step_ms: f64,
-    /// Mean wall time of a reconstruction, ms (`None` for the reference, which has none).
+    /// Mean CPU time of a reconstruction on one thread, ms (`None` for the reference, which
+    /// has none).
     pub reconstruct_ms: Option<f64>,
     /// On-screen error against the reference (zero for the reference).
     pub screen: ScreenError,
@@ -149,10 +155,26 @@ pub struct RunSpec {
 }
 
 /// Sees each frame of a run: step (0-based), the cloth after it and its reconstructed vertices.
-pub type Observer<'a> = &'a mut dyn FnMut(u32, &AdaptiveCloth, &[Vec3]);
+pub type Observer<'a> = &'a mut ObserveFrame<'a>;
+
+/// What an [`Observer`] calls: step (0-based), the cloth after it, its reconstructed vertices.
+pub type ObserveFrame<'a> = dyn FnMut(u32, &AdaptiveCloth, &[Vec3]) + Send + 'a;
 
 fn bad(field: &'static str, reason: &'static str) -> ClothError {
     ClothError::Feedback { field, reason }
+}
+
+/// Runs `f` on a rayon pool of one thread of its own, so that everything a run does (the
+/// body's team, the salience evaluation) happens on the thread whose CPU time is its cost.
+pub(super) fn on_one_thread<T: Send>(
+    f: impl FnOnce() -> Result<T, ClothError> + Send,
+) -> Result<T, ClothError> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .thread_name(|_| "slod-measure".into())
+        .build()
+        .map_err(|_| bad("measurement thread", "could not be started"))?
+        .install(f)
 }
 
 fn check_horizon(horizon: Option<u32>) -> Result<(), ClothError> {
@@ -166,6 +188,10 @@ fn check_horizon(horizon: Option<u32>) -> Result<(), ClothError> {
 /// steps when given (for short-horizon measurements). `Some(0)` is refused.
 pub fn record_reference(scene: &Scene, horizon: Option<u32>) -> Result<Reference, ClothError> {
     check_horizon(horizon)?;
+    on_one_thread(|| record_reference_here(scene, horizon))
+}
+
+fn record_reference_here(scene: &Scene, horizon: Option<u32>) -> Result<Reference, ClothError> {
     let mut cloth = scene.cloth(Strategy::Reference.initial_cut(scene, usize::MAX)?)?;
     let n = scene.hierarchy.vertex_count();
     let mut frames = vec![Vec3::ZERO; n * scene.steps as usize];
@@ -174,7 +200,7 @@ pub fn record_reference(scene: &Scene, horizon: Option<u32>) -> Result<Reference
     for step in 0..scene.steps {
         scene.drive(&mut cloth, step)?;
         let view = scene.view(step)?;
-        let t = Instant::now();
+        let t = ThreadTime::now();
         cloth.step(&view)?;
         seconds += t.elapsed().as_secs_f64();
         let frame = &mut frames[step as usize * n..(step as usize + 1) * n];
@@ -283,14 +309,28 @@ fn restart_from(cloth: &mut AdaptiveCloth, state: &State) -> Result<(), ClothErr
 }
 
 /// Runs `spec` on `scene` and measures it against `reference` (recorded with the same horizon
-/// when `spec.horizon` is set). A bound ≤ 0 or not finite, a horizon of 0 or one the reference
-/// kept no states for is refused before anything runs.
+/// when `spec.horizon` is set), alone on a thread of its own. A bound ≤ 0 or not finite, a
+/// horizon of 0 or one the reference kept no states for is refused before anything runs.
 pub fn run_strategy(
     scene: &Scene,
     reference: &Reference,
     spec: RunSpec,
     mut observer: Option<Observer<'_>>,
 ) -> Result<RunResult, ClothError> {
+    if spec.strategy == Strategy::Reference {
+        check_spec(reference, spec)?;
+        return Ok(reference.run);
+    }
+    on_one_thread(|| {
+        let mut run = Run::start(scene, reference, spec)?;
+        while !run.done() {
+            run.advance(observer.as_deref_mut())?;
+        }
+        Ok(run.finish())
+    })
+}
+
+fn check_spec(reference: &Reference, spec: RunSpec) -> Result<(), ClothError> {
     check_horizon(spec.horizon)?;
     if spec.strategy == Strategy::ErrorBound && !(spec.bound_px.is_finite() && spec.bound_px > 0.0)
     {
@@ -302,61 +342,153 @@ pub fn run_strategy(
             "the reference kept no states for this horizon",
         ));
     }
-    if spec.strategy == Strategy::Reference {
-        return Ok(reference.run);
+    Ok(())
+}
+
+/// The error meters of a measured run: the whole, coarse-covered and finest vertices.
+#[derive(Debug)]
+struct Meters {
+    whole: ScreenMeter,
+    coarse: ScreenMeter,
+    fine: ScreenMeter,
+    /// Scratch: which vertices a coarse node covers this frame.
+    covered: Vec<bool>,
+}
+
+/// One run in progress, advanced a step at a time, so that [`super::run_scene`] can interleave
+/// the runs of a scene step by step: every strategy then meets the same moments of a shared,
+/// noisy machine, and the ratios between their costs are measured in one window.
+///
+/// A [`Strategy::Reference`] run only steps the full-resolution cloth and times it (its error
+/// is zero by construction: it is the reference); every other run is measured against the
+/// reference's frames.
+#[derive(Debug)]
+pub struct Run<'a> {
+    scene: &'a Scene,
+    reference: &'a Reference,
+    spec: RunSpec,
+    cloth: AdaptiveCloth,
+    /// `None` for a reference run.
+    meters: Option<Meters>,
+    vertices: Vec<Vec3>,
+    step: u32,
+    nodes: f64,
+    step_s: f64,
+    reconstruct_s: f64,
+}
+
+impl<'a> Run<'a> {
+    /// Builds the run's cloth on its initial cut; bad specs are refused as by [`run_strategy`].
+    pub fn start(
+        scene: &'a Scene,
+        reference: &'a Reference,
+        spec: RunSpec,
+    ) -> Result<Self, ClothError> {
+        check_spec(reference, spec)?;
+        let mut cloth = scene.cloth(spec.strategy.initial_cut(scene, spec.nodes)?)?;
+        cloth.set_feedback(spec.strategy.feedback(spec.nodes, spec.bound_px))?;
+        let meters = if spec.strategy == Strategy::Reference {
+            None
+        } else {
+            let whole = ScreenMeter::new(scene.view(0)?);
+            Some(Meters {
+                coarse: whole.clone(),
+                fine: whole.clone(),
+                whole,
+                covered: vec![false; reference.vertex_count],
+            })
+        };
+        Ok(Run {
+            scene,
+            reference,
+            spec,
+            cloth,
+            meters,
+            vertices: vec![Vec3::ZERO; reference.vertex_count],
+            step: 0,
+            nodes: 0.0,
+            step_s: 0.0,
+            reconstruct_s: 0.0,
+        })
     }
-    let mut cloth = scene.cloth(spec.strategy.initial_cut(scene, spec.nodes)?)?;
-    cloth.set_feedback(spec.strategy.feedback(spec.nodes, spec.bound_px))?;
-    let mut meter = ScreenMeter::new(scene.view(0)?);
-    let (mut coarse_meter, mut fine_meter) = (meter.clone(), meter.clone());
-    let mut coarse = vec![false; reference.vertex_count];
-    let mut vertices = vec![Vec3::ZERO; reference.vertex_count];
-    let (mut nodes, mut step_s, mut reconstruct_s) = (0f64, 0f64, 0f64);
-    for step in 0..scene.steps {
-        if let Some(state) = spec.horizon.and_then(|_| reference.state(step)) {
-            restart_from(&mut cloth, state)?;
-            meter.restart_sequence();
-            coarse_meter.restart_sequence();
-            fine_meter.restart_sequence();
+
+    /// Whether every step of the scene has run.
+    pub fn done(&self) -> bool {
+        self.step >= self.scene.steps
+    }
+
+    /// Runs the next step (a no-op when [`Run::done`]): restart (short horizons), drive, step
+    /// and reconstruct (timed: the calling thread's CPU time), measure, then `observer`.
+    pub fn advance(&mut self, observer: Option<&mut ObserveFrame<'_>>) -> Result<(), ClothError> {
+        if self.done() {
+            return Ok(());
         }
-        scene.drive(&mut cloth, step)?;
+        let (step, scene) = (self.step, self.scene);
+        let cloth = &mut self.cloth;
+        if let Some(state) = self.spec.horizon.and_then(|_| self.reference.state(step)) {
+            restart_from(cloth, state)?;
+            if let Some(m) = &mut self.meters {
+                m.whole.restart_sequence();
+                m.coarse.restart_sequence();
+                m.fine.restart_sequence();
+            }
+        }
+        scene.drive(cloth, step)?;
         let view = scene.view(step)?;
-        let t = Instant::now();
+        let t = ThreadTime::now();
         cloth.step(&view)?;
-        step_s += t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        cloth.reconstruct(&mut vertices)?;
-        reconstruct_s += t.elapsed().as_secs_f64();
-        nodes += cloth.node_count() as f64;
-        meter.set_view(view);
-        meter.frame(&vertices, reference.frame(step));
-        mark_coarse(&cloth, &mut coarse);
-        coarse_meter.set_view(view);
-        coarse_meter.frame_masked(&vertices, reference.frame(step), &coarse);
-        coarse.iter_mut().for_each(|c| *c = !*c);
-        fine_meter.set_view(view);
-        fine_meter.frame_masked(&vertices, reference.frame(step), &coarse);
-        if let Some(o) = observer.as_mut() {
-            o(step, &cloth, &vertices);
+        self.step_s += t.elapsed().as_secs_f64();
+        self.nodes += cloth.node_count() as f64;
+        self.step += 1;
+        let Some(m) = &mut self.meters else {
+            return Ok(());
+        };
+        let vertices = &mut self.vertices;
+        let t = ThreadTime::now();
+        cloth.reconstruct(vertices)?;
+        self.reconstruct_s += t.elapsed().as_secs_f64();
+        let reference = self.reference.frame(step);
+        m.whole.set_view(view);
+        m.whole.frame(vertices, reference);
+        mark_coarse(cloth, &mut m.covered);
+        m.coarse.set_view(view);
+        m.coarse.frame_masked(vertices, reference, &m.covered);
+        m.covered.iter_mut().for_each(|c| *c = !*c);
+        m.fine.set_view(view);
+        m.fine.frame_masked(vertices, reference, &m.covered);
+        if let Some(o) = observer {
+            o(step, cloth, vertices);
+        }
+        Ok(())
+    }
+
+    /// The run's figures (over the steps run so far).
+    pub fn finish(self) -> RunResult {
+        let steps = f64::from(self.step.max(1));
+        let stats = self.cloth.stats();
+        let spec = self.spec;
+        let measured = self.meters.map(|mut m| {
+            (
+                m.whole.finish(),
+                SplitError {
+                    coarse: m.coarse.finish(),
+                    fine: m.fine.finish(),
+                },
+            )
+        });
+        RunResult {
+            strategy: spec.strategy,
+            nodes: self.nodes / steps,
+            step_ms: 1e3 * self.step_s / steps,
+            reconstruct_ms: measured.is_some().then(|| 1e3 * self.reconstruct_s / steps),
+            screen: measured.map(|m| m.0).unwrap_or_default(),
+            screen_split: measured.map(|m| m.1),
+            operations: stats.refines + stats.coarses,
+            undone_operations: stats.undone_ops,
+            bound_px: (spec.strategy == Strategy::ErrorBound).then_some(spec.bound_px),
+            horizon_steps: spec.horizon,
         }
     }
-    let steps = scene.steps as f64;
-    let stats = cloth.stats();
-    Ok(RunResult {
-        strategy: spec.strategy,
-        nodes: nodes / steps,
-        step_ms: 1e3 * step_s / steps,
-        reconstruct_ms: Some(1e3 * reconstruct_s / steps),
-        screen: meter.finish(),
-        screen_split: Some(SplitError {
-            coarse: coarse_meter.finish(),
-            fine: fine_meter.finish(),
-        }),
-        operations: stats.refines + stats.coarses,
-        undone_operations: stats.undone_ops,
-        bound_px: (spec.strategy == Strategy::ErrorBound).then_some(spec.bound_px),
-        horizon_steps: spec.horizon,
-    })
 }
 
 /// The twin floor: the reference perturbed by [`TWIN_PERTURBATION_M`] (every free particle, in

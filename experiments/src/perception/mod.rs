@@ -25,7 +25,7 @@ use slod::cloth::{ClothError, compression_nodes};
 
 pub use equal::{CostPoint, uniform_cost_at};
 pub use measures::{
-    Reference, RunResult, RunSpec, SplitError, TWIN_PERTURBATION_M, perturbed_twin,
+    Reference, Run, RunResult, RunSpec, SplitError, TWIN_PERTURBATION_M, perturbed_twin,
     record_reference, run_strategy, twin_floor,
 };
 pub use scenes::{FOV_Y_DEG, MEASURE_HEIGHT_PX, MEASURE_WIDTH_PX, Scene, SceneScale};
@@ -149,25 +149,25 @@ impl SceneOutcome {
     }
 }
 
-/// Progress of [`run_scene`]: a label, jobs done, jobs in all.
+/// Progress of [`run_scene`]: a label, units done, units in all.
 pub type Progress<'a> = &'a (dyn Fn(&str, usize, usize) + Sync);
 
-enum Job {
-    Run(RunSpec),
-    Curve(RunSpec),
-    Twin,
-}
-
-enum Done {
-    Run(RunResult),
-    Curve(RunResult),
-    Twin(ScreenError),
+/// Whether a run's result belongs to the strategies' table or to the uniform curve.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Role {
+    Table,
+    Curve,
 }
 
 /// Runs every strategy on `scene` as configured: the reference (keeping states for short
 /// horizons on chaotic scenes), the twin floor, each strategy at the same node count (and over
 /// short horizons on chaotic scenes), the uniform curve, and equal error. Bad settings are
 /// refused before anything runs.
+///
+/// Sequential (the default): every run, and a second full-resolution run that only times the
+/// reference, advance together on one thread, a step of each in turn (the order rotating with
+/// the step), so that all costs are measured in the same window of a shared machine. Parallel:
+/// each run alone on its own thread of the rayon pool.
 pub fn run_scene(
     scene: &Scene,
     config: &PerceptionConfig,
@@ -178,50 +178,54 @@ pub fn run_scene(
     let budget = compression_nodes(config.compression, full);
     let horizon = scene.chaotic.then_some(config.horizon_steps);
     let reference = record_reference(scene, horizon)?;
-    let mut jobs = vec![Job::Twin];
+    let total = scene.steps as usize + 2;
+    progress(scene.name, 1, total);
     let spec = |strategy, nodes, horizon| RunSpec {
         strategy,
         nodes,
         bound_px: config.bound_px,
         horizon,
     };
+    let mut jobs = Vec::new();
     for &s in &Strategy::ALL[1..] {
-        jobs.push(Job::Run(spec(s, budget, None)));
+        jobs.push((Role::Table, spec(s, budget, None)));
         if horizon.is_some() {
-            jobs.push(Job::Run(spec(s, budget, horizon)));
+            jobs.push((Role::Table, spec(s, budget, horizon)));
         }
     }
     for &f in &config.uniform_fractions {
         let nodes = compression_nodes(f, full);
         if nodes != budget && nodes < full {
-            jobs.push(Job::Curve(spec(Strategy::Uniform, nodes, horizon)));
+            jobs.push((Role::Curve, spec(Strategy::Uniform, nodes, horizon)));
         }
     }
-    let total = jobs.len() + 1;
-    let done = AtomicUsize::new(1);
-    progress(scene.name, 1, total);
-    let work = |job: &Job| -> Result<Done, ClothError> {
-        let out = match job {
-            Job::Run(s) => Done::Run(run_strategy(scene, &reference, *s, None)?),
-            Job::Curve(s) => Done::Curve(run_strategy(scene, &reference, *s, None)?),
-            Job::Twin => Done::Twin(twin_floor(scene, &reference)?),
-        };
-        progress(scene.name, done.fetch_add(1, Ordering::Relaxed) + 1, total);
-        Ok(out)
-    };
-    let results: Vec<Done> = if config.parallel {
-        jobs.par_iter().map(work).collect::<Result<_, _>>()?
+    let (results, reference_run) = if config.parallel {
+        let done = AtomicUsize::new(1);
+        let results = jobs
+            .par_iter()
+            .map(|&(role, spec)| {
+                let r = run_strategy(scene, &reference, spec, None)?;
+                let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+                progress(
+                    scene.name,
+                    1 + d * scene.steps as usize / (jobs.len() + 1),
+                    total,
+                );
+                Ok((role, r))
+            })
+            .collect::<Result<Vec<_>, ClothError>>()?;
+        (results, reference.run)
     } else {
-        jobs.iter().map(work).collect::<Result<_, _>>()?
+        interleaved(scene, &reference, &jobs, progress)?
     };
-    let mut runs = vec![reference.run];
+    let twin = twin_floor(scene, &reference)?;
+    progress(scene.name, total, total);
     let mut curve = Vec::new();
-    let mut twin = ScreenError::default();
-    for r in results {
-        match r {
-            Done::Run(r) => runs.push(r),
-            Done::Curve(r) => curve.push(r),
-            Done::Twin(t) => twin = t,
+    let mut runs = vec![reference_run];
+    for (role, r) in results {
+        match role {
+            Role::Table => runs.push(r),
+            Role::Curve => curve.push(r),
         }
     }
     let point = |r: &RunResult| CostPoint {
@@ -239,7 +243,7 @@ pub fn run_scene(
     uniform_curve.sort_by(|a, b| a.nodes.total_cmp(&b.nodes));
     uniform_curve.push(CostPoint {
         nodes: full as f64,
-        ms: reference.run.ms_per_step(),
+        ms: reference_run.ms_per_step(),
         p99_px: 0.0,
     });
     let equal_error = runs
@@ -266,5 +270,47 @@ pub fn run_scene(
         runs,
         uniform_curve,
         equal_error,
+    })
+}
+
+/// The runs of `jobs` and a timing-only reference run, advanced a step of each in turn on one
+/// thread of their own (the order rotating with the step): the results in `jobs`' order and
+/// the reference's result with its cost from this window.
+fn interleaved(
+    scene: &Scene,
+    reference: &Reference,
+    jobs: &[(Role, RunSpec)],
+    progress: Progress<'_>,
+) -> Result<(Vec<(Role, RunResult)>, RunResult), ClothError> {
+    measures::on_one_thread(|| {
+        let timing = RunSpec {
+            strategy: Strategy::Reference,
+            nodes: scene.hierarchy.vertex_count(),
+            bound_px: 1.0,
+            horizon: None,
+        };
+        let mut runs = jobs
+            .iter()
+            .map(|&(_, spec)| Run::start(scene, reference, spec))
+            .chain([Run::start(scene, reference, timing)])
+            .collect::<Result<Vec<_>, _>>()?;
+        let n = runs.len();
+        for step in 0..scene.steps as usize {
+            for k in 0..n {
+                runs[(k + step) % n].advance(None)?;
+            }
+            progress(scene.name, 2 + step, scene.steps as usize + 2);
+        }
+        let timed = runs.pop().map(Run::finish);
+        let reference_run = RunResult {
+            step_ms: timed.map_or(reference.run.step_ms, |t| t.step_ms),
+            ..reference.run
+        };
+        let results = jobs
+            .iter()
+            .zip(runs)
+            .map(|(&(role, _), run)| (role, run.finish()))
+            .collect();
+        Ok((results, reference_run))
     })
 }

@@ -56,6 +56,70 @@ fn feedback_beats_uniform_and_random_on_screen_at_equal_nodes() {
     }
 }
 
+/// Interleaving a scene's runs step by step (to time them in one window) changes nothing they
+/// compute: `run_scene`'s figures are those of each run alone, on a short-horizon scene too,
+/// and the parallel mode gives them as well.
+#[test]
+fn interleaved_runs_compute_what_runs_alone_compute() {
+    for scene in [
+        scenes::net(SceneScale::Tiny).unwrap(),
+        scenes::flag(SceneScale::Tiny).unwrap(),
+    ] {
+        let config = PerceptionConfig {
+            uniform_fractions: vec![0.5],
+            ..PerceptionConfig::default()
+        };
+        let horizon = scene.chaotic.then_some(config.horizon_steps);
+        let together = run_scene(&scene, &config, &|_, _, _| {}).unwrap();
+        let parallel = run_scene(
+            &scene,
+            &PerceptionConfig {
+                parallel: true,
+                ..config.clone()
+            },
+            &|_, _, _| {},
+        )
+        .unwrap();
+        let reference = record_reference(&scene, horizon).unwrap();
+        let nodes = compression_nodes(config.compression, scene.hierarchy.vertex_count());
+        let mut checked = 0;
+        for (r, p) in together.runs.iter().zip(&parallel.runs).skip(1) {
+            let alone = run_strategy(
+                &scene,
+                &reference,
+                RunSpec {
+                    strategy: r.strategy,
+                    nodes,
+                    bound_px: config.bound_px,
+                    horizon: r.horizon_steps,
+                },
+                None,
+            )
+            .unwrap();
+            for x in [r, p] {
+                assert_eq!(
+                    (x.screen, x.screen_split, x.nodes, x.operations),
+                    (
+                        alone.screen,
+                        alone.screen_split,
+                        alone.nodes,
+                        alone.operations
+                    ),
+                    "{} {:?}",
+                    scene.name,
+                    r.strategy
+                );
+            }
+            checked += 1;
+        }
+        assert_eq!(
+            checked,
+            Strategy::ALL.len() - 1 + usize::from(horizon.is_some()) * 9
+        );
+        assert!(together.runs[0].step_ms > 0.0, "the reference is timed");
+    }
+}
+
 /// The twin floor is small but not zero on a calm scene (net at 17²: rms 0.0026 px, max
 /// 0.021 px), exactly zero with no perturbation (the simulation is deterministic), and far
 /// larger on a chaotic one (the flag in its wind: rms 0.18 px, max 4.3 px).
