@@ -8,7 +8,7 @@
 //! level-1 nodes refined in a scattered order until the count is reached). `tc_75_blending`
 //! keeps about 25 transitions in flight, as the paper's runs did.
 //! Times are the thread's CPU time (`support/cpu_time.rs`), robust to a shared machine.
-//! `reconstruct tc_30/*` times a step and the smooth reconstruction a renderer reads after it
+//! `reconstruct tc_30/*` times a step and the reconstruction a renderer reads after it
 //! (the step alone is `tc_30`).
 #[path = "support/cpu_time.rs"]
 mod cpu_time;
@@ -154,10 +154,9 @@ fn bench(c: &mut Criterion<ThreadTime>) {
     reconstruction(c);
 }
 
-/// The smooth reconstruction a renderer pays every frame, on the paper's net at 30 % of the
-/// nodes (a scattered mixed cut, so most particles need a rotation): `steady` re-reads a body
-/// whose topology did not change (the weight table is kept; each iteration steps first, so the
-/// rotations' warm starts are one step old, as in a run), `after_operation` a body that began a
+/// The default reconstruction a renderer pays every frame, on the paper's net at 30 % of the
+/// nodes (a scattered mixed cut): `steady` re-reads a body whose topology did not change (the
+/// weight table is kept; each iteration steps first), `after_operation` a body that began a
 /// refine or coarse since (the table is rebuilt). Throughput: finest vertices.
 fn reconstruction(c: &mut Criterion<ThreadTime>) {
     let mut group = c.benchmark_group("reconstruct tc_30");

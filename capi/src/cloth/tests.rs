@@ -234,8 +234,8 @@ fn mesh_cloth_runs_the_loop() {
     let mut out = vec![Vec3::ZERO; positions.len()];
     c.reconstruct(&mut out).unwrap();
     assert!(out.iter().all(|p| p.is_finite()));
-    // Smooth reconstruction blends in the neighbours' predictions, so a pinned vertex of a
-    // coarse node sits within a hundredth of the 0.1 m spacing of its anchor.
+    // The reconstruction puts a pinned vertex on its anchor whatever the coarse node's fit:
+    // within a hundredth of the 0.1 m spacing.
     let off = out[0].distance(positions[0]);
     assert!(off < 1e-3, "pinned vertex moved {off}");
     assert!(out[60].y < -0.05, "the free part falls");

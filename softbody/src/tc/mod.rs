@@ -218,7 +218,7 @@ pub struct TreeCutSoftBody {
     rotation: Vec<Quat>,
     /// The reconstruction's own warm start (see [`RotationCache`]).
     recon_rotation: RotationCache,
-    /// The smooth reconstruction's weights for the current topology.
+    /// The reconstruction's weights (`Smooth` or `Mls`) for the current topology.
     recon_table: reconstruct::TableCache,
     transitions: Vec<Transition>,
     spare: Vec<Transition>,

@@ -61,7 +61,11 @@ fn pinned_vertices_are_at_their_anchors_at_every_cut() {
                     .unwrap();
             }
             tc.step();
-            for mode in [ReconstructionMode::Rigid, ReconstructionMode::Smooth] {
+            for mode in [
+                ReconstructionMode::Rigid,
+                ReconstructionMode::Smooth,
+                ReconstructionMode::Mls,
+            ] {
                 tc.reconstruct_with(mode, &mut out).unwrap();
                 for v in 0..n * n {
                     if let Some(anchor) = tc.vertex_anchor(v) {
