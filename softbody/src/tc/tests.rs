@@ -547,19 +547,25 @@ fn mls_and_smooth_reconstructions_beat_rigid() {
             errs[0], errs[1], errs[2]
         );
         assert!(errs[1].rms < errs[0].rms, "level {level}: {errs:?}");
-        // The default MLS fit: as close as the smooth blend (RMS within 10%; measured
+        // The MLS fit: as close as the smooth blend (RMS within 10%; measured
         // 0.90/0.96/1.08 of it at levels 1/2/3) with a lower maximum (0.76/0.51/0.60 of it).
         assert!(errs[2].rms < 1.1 * errs[1].rms, "level {level}: {errs:?}");
         assert!(errs[2].max < errs[1].max, "level {level}: {errs:?}");
     }
 }
 
-/// The smooth reconstruction's weight table is built once per topology and reused: through
+/// The reconstruction's weight table (smooth and MLS) is built once per topology and reused: through
 /// random refines and coarses (and a renumbering) the reconstruction read every step is,
 /// bit for bit, the one a table built from scratch gives, and the one a reader gets while
 /// another holds the table (it then builds its own).
 #[test]
 fn cached_reconstruction_follows_every_topology_change() {
+    for mode in [ReconstructionMode::Smooth, ReconstructionMode::Mls] {
+        cached_reconstruction_follows(mode);
+    }
+}
+
+fn cached_reconstruction_follows(mode: ReconstructionMode) {
     let n = 17;
     let mut tc = body(n, 1, true);
     pin_corners(&mut tc, n);
@@ -580,7 +586,7 @@ fn cached_reconstruction_follows_every_topology_change() {
         }
         tc.step();
         let before = tc.recon_table.0.lock().unwrap().generation;
-        tc.reconstruct(&mut cached).unwrap();
+        tc.reconstruct_with(mode, &mut cached).unwrap();
         if before == tc.recon_table.0.lock().unwrap().generation {
             reused += 1;
         } else {
@@ -588,10 +594,10 @@ fn cached_reconstruction_follows_every_topology_change() {
         }
         {
             let _other_reader = tc.recon_table.0.lock().unwrap();
-            tc.reconstruct(&mut held).unwrap();
+            tc.reconstruct_with(mode, &mut held).unwrap();
         }
         tc.recon_table.0.lock().unwrap().generation = None;
-        tc.reconstruct(&mut fresh).unwrap();
+        tc.reconstruct_with(mode, &mut fresh).unwrap();
         let bits = |v: &[Vec3]| {
             v.iter()
                 .map(|p| p.to_array().map(f32::to_bits))
@@ -600,7 +606,7 @@ fn cached_reconstruction_follows_every_topology_change() {
         assert_eq!(bits(&cached), bits(&fresh), "step {step}");
         assert_eq!(bits(&held), bits(&fresh), "step {step}");
     }
-    eprintln!("table rebuilt {rebuilt}, reused {reused} times");
+    eprintln!("{mode:?}: table rebuilt {rebuilt}, reused {reused} times");
     assert!(
         rebuilt > 20 && reused > 20,
         "rebuilt {rebuilt}, reused {reused}"
