@@ -154,7 +154,7 @@ fn bench(c: &mut Criterion<ThreadTime>) {
     reconstruction(c);
 }
 
-/// The default (smooth) reconstruction a renderer pays every frame, on the paper's net at 30 % of the
+/// The default (MLS) reconstruction a renderer pays every frame, on the paper's net at 30 % of the
 /// nodes (a scattered mixed cut): `steady` re-reads a body whose topology did not change (the
 /// weight table is kept; each iteration steps first), `after_operation` a body that began a
 /// refine or coarse since (the table is rebuilt). Throughput: finest vertices.

@@ -109,10 +109,10 @@
 //! the total force does not depend on the cut.
 //! Pins belong to finest vertices; the node covering a pinned vertex is pinned where that vertex
 //! sits on its anchor (see [`TreeCutSoftBody::pin_vertex`]). [`TreeCutSoftBody::reconstruct`] gives
-//! every finest vertex a position (carried by its node's shape-matching rotation, blended with
-//! the neighbours' predictions in the default [`ReconstructionMode::Smooth`], or a quadratic
-//! least-squares fit to the node and its neighbours in the cheaper [`ReconstructionMode::Mls`]),
-//! and
+//! every finest vertex a position (in the default [`ReconstructionMode::Mls`], a quadratic
+//! least-squares fit to its node and the node's neighbours; or carried by the node's
+//! shape-matching rotation, alone or blended with the neighbours'; outside the colliders in
+//! every mode), and
 //! [`reconstruction_error`] compares it with a full-resolution reference.
 // The crate's `unsafe` is the call into the run-time selected AVX2/AVX-512 kernels, in
 // `kernel/x86.rs`, the `Send`/`Sync` of the particle view that lets threads solve disjoint links

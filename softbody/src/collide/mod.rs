@@ -270,6 +270,31 @@ impl Colliders {
         worst
     }
 
+    /// Moves every point of `points` that is closer to a collider's shape than its thickness
+    /// out to that distance, along the shape's normal (colliders in slot order, one pass: a
+    /// point pushed out of one into another where two overlap stays there). For the surface a
+    /// viewer sees: a coarse node keeps its particle out of a collider, but the finest
+    /// vertices placed between particles held outside a curved collider cut the chord through
+    /// it; the full-resolution cloth keeps every vertex at the thickness.
+    pub fn push_out(&self, points: &mut [Vec3]) {
+        for (_, c) in self.arena.iter() {
+            let t = &c.desc.transform;
+            let (lo, hi) = c.desc.shape.bounds(t, c.desc.thickness);
+            let placed = Placed::new(&c.desc.shape, t);
+            for p in points.iter_mut() {
+                let x = Vec3A::from(*p);
+                if x.cmplt(lo).any() || x.cmpgt(hi).any() {
+                    continue;
+                }
+                let (d, n) = placed.distance(x);
+                let depth = c.desc.thickness - d;
+                if depth > 0.0 {
+                    *p = Vec3::from(x + n * depth);
+                }
+            }
+        }
+    }
+
     /// Broad phase for one step: which colliders may touch which particles (see the module
     /// docs). `reach` is how far a particle can travel in the step.
     pub(crate) fn begin_step(
