@@ -17,7 +17,7 @@ use cpu_time::ThreadTime;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use softbody::treecut::{Cut, GridSpec, Hierarchy, NodeId};
-use softbody::{GridCloth, SolverSettings, TreeCutSettings, TreeCutSoftBody};
+use softbody::{GridCloth, ReconstructionMode, SolverSettings, TreeCutSettings, TreeCutSoftBody};
 use std::hint::black_box;
 
 const COLS: u32 = 79;
@@ -154,30 +154,36 @@ fn bench(c: &mut Criterion<ThreadTime>) {
     reconstruction(c);
 }
 
-/// The default (MLS) reconstruction a renderer pays every frame, on the paper's net at 30 % of the
-/// nodes (a scattered mixed cut): `steady` re-reads a body whose topology did not change (the
-/// weight table is kept; each iteration steps first), `after_operation` a body that began a
-/// refine or coarse since (the table is rebuilt). Throughput: finest vertices.
+/// The reconstruction a renderer pays every frame, in the default (MLS) and the smooth mode, on
+/// the paper's net at 30 % of the nodes (a scattered mixed cut): `steady` re-reads a body whose
+/// topology did not change (the weight table is kept; each iteration steps first),
+/// `after_operation` a body that began a refine or coarse since (the table is rebuilt).
+/// Throughput: finest vertices.
 fn reconstruction(c: &mut Criterion<ThreadTime>) {
     let mut group = c.benchmark_group("reconstruct tc_30");
     let mut body = tc(0.30);
     let mut out = vec![Vec3::ZERO; body.hierarchy().vertex_count()];
     group.throughput(Throughput::Elements(out.len() as u64));
-    group.bench_function("steady", |b| {
-        b.iter(|| {
-            body.step();
-            body.reconstruct(black_box(&mut out)).unwrap();
-        });
-    });
     let order = scattered(body.hierarchy(), 1);
     let mut next = 0usize;
-    group.bench_function("after_operation", |b| {
-        b.iter(|| {
-            begin_next(&mut body, &order, &mut next);
-            body.step();
-            body.reconstruct(black_box(&mut out)).unwrap();
+    for (name, mode) in [
+        ("mls", ReconstructionMode::Mls),
+        ("smooth", ReconstructionMode::Smooth),
+    ] {
+        group.bench_function(format!("{name}/steady"), |b| {
+            b.iter(|| {
+                body.step();
+                body.reconstruct_with(mode, black_box(&mut out)).unwrap();
+            });
         });
-    });
+        group.bench_function(format!("{name}/after_operation"), |b| {
+            b.iter(|| {
+                begin_next(&mut body, &order, &mut next);
+                body.step();
+                body.reconstruct_with(mode, black_box(&mut out)).unwrap();
+            });
+        });
+    }
     group.finish();
 }
 
