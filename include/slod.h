@@ -265,6 +265,38 @@ typedef uint32_t SlodPriorityModel;
 #endif // __cplusplus
 
 /**
+ * How a cloth's finest vertices are placed from its simulated nodes for the renderer (values
+ * of `SlodClothDesc::reconstruction`). Every mode is exact where the cut is at the finest
+ * level, puts pinned vertices on their anchors and keeps vertices out of the cloth's colliders.
+ */
+enum SlodReconstruction
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /**
+   * A quadratic least-squares fit to each coarse node and its linked neighbours (the
+   * default): as close as `SMOOTH` to the full-resolution cloth, a quarter of its cost.
+   */
+  SLOD_RECONSTRUCTION_MLS = 0,
+  /**
+   * Each coarse node's shape-matching rotation, blended with its neighbours'.
+   */
+  SLOD_RECONSTRUCTION_SMOOTH = 1,
+  /**
+   * Each coarse node's shape-matching rotation alone (cracks between patches).
+   */
+  SLOD_RECONSTRUCTION_RIGID = 2,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum SlodReconstruction SlodReconstruction;
+#else
+typedef uint32_t SlodReconstruction;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
  * How a crowd chooses each character's detail (values of `SlodLodDesc::mode`).
  */
 enum SlodLodMode
@@ -887,6 +919,11 @@ typedef struct SlodClothDesc {
    * block, … (clamped to the coarsest level).
    */
   uint32_t initial_level;
+  /**
+   * How `slod_cloth_vertex_positions` places the finest vertices: a `SlodReconstruction`
+   * value (default `SLOD_RECONSTRUCTION_MLS`). Used by both creation functions.
+   */
+  uint32_t reconstruction;
 } SlodClothDesc;
 
 /**
@@ -2000,13 +2037,14 @@ SlodResult slod_cloth_node_info(const struct SlodWorld *world,
                                 struct SlodNodeInfo *out_info);
 
 /**
- * Reconstructs every finest-level vertex from the simulated nodes and copies the positions
- * (3 floats each: x, y, z, stride 3 floats, in vertex index order) to `out`: what a renderer
- * draws.
+ * Reconstructs every finest-level vertex from the simulated nodes (as the cloth desc's
+ * `reconstruction` says) and copies the positions (3 floats each: x, y, z, stride 3 floats,
+ * in vertex index order) to `out`: what a renderer draws.
  *
  * A query: reading the vertices never changes what is simulated (two identical cloths stay
- * bit-identical whether or not either is read), and pinned vertices are exactly at their
- * anchors at every cut.
+ * bit-identical whether or not either is read); pinned vertices are exactly at their anchors
+ * at every cut, and every vertex is at least a collider's thickness out of the cloth's
+ * colliders (vertices placed between coarse nodes would otherwise cut through a curved one).
  * Buffer: copy-out, counted in vertices (`slod_cloth_vertex_count`; fixed for the cloth's life;
  * `out` holds `3 × cap` floats).
  * Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_BUFFER_TOO_SMALL`

@@ -2,7 +2,7 @@
 //! explicit refine/coarse, pins and the feedback loop's settings. Queries are in `cloth_query`.
 
 use glam::Vec3;
-use softbody::{Material, SolverSettings, TreeCutError, TreeCutSettings};
+use softbody::{Material, ReconstructionMode, SolverSettings, TreeCutError, TreeCutSettings};
 use treecut::{BuildError, GridSpec, Hierarchy, NodeId};
 
 use super::arena::RawId;
@@ -81,6 +81,34 @@ pub struct SlodClothDesc {
     /// Level of the initial cut: 0 = every finest vertex simulated, 1 = one node per 2×2
     /// block, … (clamped to the coarsest level).
     pub initial_level: u32,
+    /// How `slod_cloth_vertex_positions` places the finest vertices: a `SlodReconstruction`
+    /// value (default `SLOD_RECONSTRUCTION_MLS`). Used by both creation functions.
+    pub reconstruction: u32,
+}
+
+/// How a cloth's finest vertices are placed from its simulated nodes for the renderer (values
+/// of `SlodClothDesc::reconstruction`). Every mode is exact where the cut is at the finest
+/// level, puts pinned vertices on their anchors and keeps vertices out of the cloth's colliders.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SlodReconstruction {
+    /// A quadratic least-squares fit to each coarse node and its linked neighbours (the
+    /// default): as close as `SMOOTH` to the full-resolution cloth, a quarter of its cost.
+    Mls = 0,
+    /// Each coarse node's shape-matching rotation, blended with its neighbours'.
+    Smooth = 1,
+    /// Each coarse node's shape-matching rotation alone (cracks between patches).
+    Rigid = 2,
+}
+
+impl SlodReconstruction {
+    fn of(mode: ReconstructionMode) -> Self {
+        match mode {
+            ReconstructionMode::Mls => SlodReconstruction::Mls,
+            ReconstructionMode::Smooth => SlodReconstruction::Smooth,
+            ReconstructionMode::Rigid => SlodReconstruction::Rigid,
+        }
+    }
 }
 
 /// What the feedback loop's budget counts (values of `SlodFeedbackDesc::budget_kind`).
@@ -181,6 +209,7 @@ pub extern "C" fn slod_default_cloth_desc() -> SlodClothDesc {
             parallel_min_links: s.solver.parallel_min_links,
         },
         initial_level: 1,
+        reconstruction: SlodReconstruction::of(s.reconstruction) as u32,
     }
 }
 
@@ -307,6 +336,25 @@ impl SlodSolverDesc {
 }
 
 impl SlodClothDesc {
+    /// The solver's settings with the reconstruction mode, for `world`.
+    fn settings(&self, world: &SlodWorld) -> Result<TreeCutSettings, FfiError> {
+        let reconstruction = match self.reconstruction {
+            r if r == SlodReconstruction::Mls as u32 => ReconstructionMode::Mls,
+            r if r == SlodReconstruction::Smooth as u32 => ReconstructionMode::Smooth,
+            r if r == SlodReconstruction::Rigid as u32 => ReconstructionMode::Rigid,
+            r => {
+                return Err(FfiError::invalid(
+                    "desc.reconstruction",
+                    format!("{r} is not a SlodReconstruction value"),
+                ));
+            }
+        };
+        Ok(TreeCutSettings {
+            reconstruction,
+            ..self.solver.to_world_settings(world)?
+        })
+    }
+
     fn grid_spec(&self) -> Result<GridSpec, FfiError> {
         check_u32(self.columns, 2, SLOD_MAX_CLOTH_VERTICES, "desc.columns")?;
         check_u32(self.rows, 2, SLOD_MAX_CLOTH_VERTICES, "desc.rows")?;
@@ -431,7 +479,7 @@ pub unsafe extern "C" fn slod_cloth_create_grid(
         // SAFETY: caller contract: NULL or a valid desc.
         let desc = unsafe { read_desc(desc) }?;
         let spec = desc.grid_spec()?;
-        let settings = desc.solver.to_world_settings(world)?;
+        let settings = desc.settings(world)?;
         if out_cloth.is_null() {
             return Err(FfiError::Null("out_cloth"));
         }
@@ -476,7 +524,7 @@ pub unsafe extern "C" fn slod_cloth_create_mesh(
         let world = unsafe { arg_mut(world, "world") }?;
         // SAFETY: caller contract: NULL or a valid desc.
         let desc = unsafe { read_desc(desc) }?;
-        let settings = desc.solver.to_world_settings(world)?;
+        let settings = desc.settings(world)?;
         // Sizes first: a huge count is refused before its pointer is touched.
         if vertex_count < 3 || vertex_count > SLOD_MAX_CLOTH_VERTICES as usize {
             return Err(FfiError::invalid(

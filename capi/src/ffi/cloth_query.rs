@@ -338,13 +338,14 @@ pub unsafe extern "C" fn slod_cloth_node_info(
     })
 }
 
-/// Reconstructs every finest-level vertex from the simulated nodes and copies the positions
-/// (3 floats each: x, y, z, stride 3 floats, in vertex index order) to `out`: what a renderer
-/// draws.
+/// Reconstructs every finest-level vertex from the simulated nodes (as the cloth desc's
+/// `reconstruction` says) and copies the positions (3 floats each: x, y, z, stride 3 floats,
+/// in vertex index order) to `out`: what a renderer draws.
 ///
 /// A query: reading the vertices never changes what is simulated (two identical cloths stay
-/// bit-identical whether or not either is read), and pinned vertices are exactly at their
-/// anchors at every cut.
+/// bit-identical whether or not either is read); pinned vertices are exactly at their anchors
+/// at every cut, and every vertex is at least a collider's thickness out of the cloth's
+/// colliders (vertices placed between coarse nodes would otherwise cut through a curved one).
 /// Buffer: copy-out, counted in vertices (`slod_cloth_vertex_count`; fixed for the cloth's life;
 /// `out` holds `3 × cap` floats).
 /// Threads: reads the world only. Errors: `SLOD_RESULT_STALE_ID`, `SLOD_RESULT_BUFFER_TOO_SMALL`

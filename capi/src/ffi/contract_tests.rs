@@ -220,3 +220,71 @@ fn shared_poses_refuse_bad_input_and_change_nothing() {
         slod_pose_share_destroy(share);
     }
 }
+
+/// `reconstruction` takes the three `SlodReconstruction` values and refuses anything else by
+/// name, creating nothing; the modes place the finest vertices of a coarse cut differently (the
+/// field reaches the cloth) and all keep a pinned-free cloth finite.
+#[test]
+fn cloth_reconstruction_mode_is_checked_and_reaches_the_cloth() {
+    let w = World::new();
+    let small = SlodClothDesc {
+        columns: 9,
+        rows: 9,
+        initial_level: 2,
+        ..slod_default_cloth_desc()
+    };
+    assert_eq!(small.reconstruction, SlodReconstruction::Mls as u32);
+    for bad in [3, 7, u32::MAX] {
+        let mut id = SlodClothId::default();
+        // SAFETY: live world, valid desc and out pointer.
+        let r = unsafe {
+            slod_cloth_create_grid(
+                w.0,
+                &SlodClothDesc {
+                    reconstruction: bad,
+                    ..small
+                },
+                &mut id,
+            )
+        };
+        assert_eq!(r, SlodResult::InvalidArgument, "{bad}");
+        assert!(last().contains("desc.reconstruction"), "{bad}: {}", last());
+        assert_eq!(id, SlodClothId::default(), "nothing created");
+    }
+    let mut shapes = Vec::new();
+    for mode in [
+        SlodReconstruction::Mls,
+        SlodReconstruction::Smooth,
+        SlodReconstruction::Rigid,
+    ] {
+        let mut id = SlodClothId::default();
+        let mut out = vec![0f32; 3 * 81];
+        let mut len = 0;
+        // SAFETY: live world, valid desc, buffers of the stated sizes and out pointers.
+        unsafe {
+            let desc = SlodClothDesc {
+                reconstruction: mode as u32,
+                ..small
+            };
+            assert_eq!(slod_cloth_create_grid(w.0, &desc, &mut id), SlodResult::Ok);
+            for _ in 0..20 {
+                assert_eq!(slod_cloth_step(w.0, id), SlodResult::Ok);
+            }
+            assert_eq!(
+                slod_cloth_vertex_positions(w.0, id, out.as_mut_ptr(), 81, &mut len),
+                SlodResult::Ok
+            );
+        }
+        assert_eq!(len, 81);
+        assert!(out.iter().all(|x| x.is_finite()), "{mode:?}");
+        shapes.push(out);
+    }
+    assert_ne!(
+        shapes[0], shapes[1],
+        "MLS and smooth place vertices differently"
+    );
+    assert_ne!(
+        shapes[1], shapes[2],
+        "smooth and rigid place vertices differently"
+    );
+}
