@@ -63,6 +63,11 @@ impl ContactMemory {
         }
     }
 
+    /// Whether `node` touched a collider since the last evaluation.
+    pub(crate) fn touched(&self, node: treecut::NodeId) -> bool {
+        self.any && self.touched.get(node.index()).copied().unwrap_or(false)
+    }
+
     /// At an evaluation: raises the priorities of touching nodes and their parents (see the
     /// module docs), then forgets the contacts.
     pub(crate) fn raise_priorities(

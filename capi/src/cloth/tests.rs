@@ -309,6 +309,57 @@ fn error_bound_spends_nodes_by_pixels() {
     }
 }
 
+/// The dwell: under a node budget, with a camera that swings around the net so that priorities
+/// keep moving, no merged node is refined again, and no refined parent merged again, within
+/// `DWELL_SECONDS` of the first operation (nothing touches a collider here).
+#[test]
+fn no_operation_is_undone_within_the_dwell() {
+    let mut c = net(33, 1, TreeCutSettings::default());
+    c.set_feedback(Some(FeedbackSettings {
+        budget: ClothBudget::Nodes(300),
+        interval: 1,
+        ..FeedbackSettings::default()
+    }))
+    .unwrap();
+    // A quarter of a second at the net's 60 Hz (checked against the constant, so that a change
+    // of it is a change of this test).
+    let dwell = 15;
+    assert_eq!(
+        (super::adaptive::DWELL_SECONDS / c.body().settings().solver.dt).round() as u64,
+        dwell
+    );
+    let h = c.hierarchy().clone();
+    let mut last: Vec<(u64, u8)> = vec![(0, 0); h.len()];
+    let (mut ops, mut reversals) = (0, 0);
+    for step in 0..300u32 {
+        let a = step as f32 * 0.05;
+        let target = Vec3::new(0.0, -0.5, 0.0);
+        let eye = target + Vec3::new(2.5 * a.cos(), 0.6, 2.5 * a.sin());
+        let view = View::look_at(eye, target, Vec3::Y, 0.8, 1920, 1080).unwrap();
+        c.step(&view).unwrap();
+        for (i, slot) in last.iter_mut().enumerate() {
+            let now = c.last_operation(treecut::NodeId::new(i));
+            if now != *slot {
+                ops += 1;
+                if slot.1 != 0 && slot.1 != now.1 {
+                    reversals += 1;
+                    assert!(
+                        now.0 - slot.0 > dwell,
+                        "node {i}: {:?} then {:?} within {dwell} steps",
+                        slot,
+                        now
+                    );
+                }
+                *slot = now;
+            }
+        }
+    }
+    assert!(
+        ops > 50 && reversals > 0,
+        "{ops} operations, {reversals} reversed"
+    );
+}
+
 /// The camera-blind ablation sees through a canonical view: two cloths seen from very different
 /// cameras stay bit-identical; with the camera, they do not.
 #[test]
