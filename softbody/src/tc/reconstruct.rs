@@ -206,12 +206,12 @@ impl TreeCutSoftBody {
                 expected,
             });
         }
-        let mut rot = LazyRotations::new(self);
         let h = &*self.hierarchy;
         let pos = self.body.positions();
         let rest_of = |v: u32| h.rest_position(h.leaf_of_vertex(v));
         match mode {
             ReconstructionMode::Rigid => {
+                let mut rot = LazyRotations::new(self);
                 for (p, &node) in self.particle_node.iter().enumerate() {
                     let (x, rest) = (pos[p].truncate(), h.rest_position(node));
                     if h.is_leaf(node) {
@@ -244,7 +244,11 @@ impl TreeCutSoftBody {
                         local.insert(t)
                     }
                 };
-                table.apply(&mut rot, pos, out);
+                if mode == ReconstructionMode::Mls {
+                    table.apply_mls(pos, out);
+                } else {
+                    table.apply(&mut LazyRotations::new(self), pos, out);
+                }
             }
         }
         // A viewer sees the cloth outside what it collides with, as the full-resolution cloth
@@ -494,10 +498,6 @@ impl SmoothTable {
 
     /// Blends every covered vertex into `out` from the particles' positions `pos`.
     fn apply(&self, rot: &mut LazyRotations<'_>, pos: &[glam::Vec4], out: &mut [Vec3]) {
-        if self.mode == ReconstructionMode::Mls {
-            self.apply_mls(pos, out);
-            return;
-        }
         for (p, &r) in self.rotated.iter().enumerate() {
             if r {
                 rot.get(p);
