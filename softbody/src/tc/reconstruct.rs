@@ -340,6 +340,11 @@ pub(super) struct SmoothTable {
     blocks: Vec<Option<MlsBlock>>,
     /// Scratch: the neighbourhood key of the particle being checked.
     key: Vec<(u32, u32)>,
+    /// The [`ReconstructionMode::Mls`] table: per vertex, the end of its terms in
+    /// `mls_terms` (each term a particle and its weight; the vertex's own particle first).
+    mls_vertex: Vec<u32>,
+    mls_end: Vec<u32>,
+    mls_terms: Vec<(u32, f32)>,
 }
 
 /// The [`ReconstructionMode::Mls`] weights of one coarse node's patch and the neighbourhood
@@ -422,26 +427,25 @@ impl SmoothTable {
     /// its neighbourhood (its neighbours' nodes, in incident order, and their shortest links)
     /// differs from the one its node's block was fitted to, so a frame whose cut changed in a
     /// few places refits a few blocks (see [`MlsBlock`]); every block is then copied into the
-    /// flat table with the particles' current indices.
+    /// flat table (8 bytes a term) with the particles' current indices.
     fn rebuild_mls(&mut self, body: &TreeCutSoftBody) {
         let h = &*body.hierarchy;
         self.blocks.resize_with(h.len(), || None);
+        self.mls_vertex.clear();
+        self.mls_end.clear();
+        self.mls_terms.clear();
         let mut near: Vec<u32> = Vec::with_capacity(16);
         for (p, &node) in body.particle_node.iter().enumerate() {
             let vertices = h.vertices(node);
+            near.clear();
+            near.push(p as u32);
             if h.is_leaf(node) {
-                self.entries.push(Entry {
-                    vertex: vertices[0],
-                    particle: p as u32,
-                    weight: 1.0,
-                    offset: Vec3::ZERO,
-                    first: self.terms.len() as u32,
-                    count: 0,
-                });
+                self.mls_vertex.push(vertices[0]);
+                self.mls_terms.push((p as u32, 1.0));
+                self.mls_end.push(self.mls_terms.len() as u32);
                 continue;
             }
             self.key.clear();
-            near.clear();
             for q in body.body.neighbours(ParticleId::new(p)) {
                 let qi = q.index();
                 near.push(qi as u32);
@@ -460,39 +464,31 @@ impl SmoothTable {
             let Some(block) = slot.as_ref() else {
                 continue;
             };
-            // The table in the same form as `Smooth`'s (offsets zero), for one flat pass.
-            for (&v, row) in vertices.iter().zip(block.rows.chunks_exact(near.len() + 1)) {
-                let first = self.terms.len() as u32;
-                for (&q, &weight) in near.iter().zip(&row[1..]) {
+            for (&v, row) in vertices.iter().zip(block.rows.chunks_exact(near.len())) {
+                self.mls_vertex.push(v);
+                // The particle's own share always (it is the first), the neighbours' where the
+                // kernel reaches.
+                self.mls_terms.push((p as u32, row[0]));
+                for (&q, &weight) in near[1..].iter().zip(&row[1..]) {
                     if weight != 0.0 {
-                        self.terms.push(Term {
-                            particle: q,
-                            weight,
-                            offset: Vec3::ZERO,
-                        });
+                        self.mls_terms.push((q, weight));
                     }
                 }
-                self.entries.push(Entry {
-                    vertex: v,
-                    particle: p as u32,
-                    weight: row[0],
-                    offset: Vec3::ZERO,
-                    first,
-                    count: self.terms.len() as u32 - first,
-                });
+                self.mls_end.push(self.mls_terms.len() as u32);
             }
         }
     }
 
-    /// [`ReconstructionMode::Mls`]: every vertex is its table entry's weighted sum of particle
-    /// positions (a finest particle's vertex, the particle itself).
+    /// [`ReconstructionMode::Mls`]: every vertex is its weighted sum of particle positions (a
+    /// finest particle's vertex, the particle itself).
     fn apply_mls(&self, pos: &[glam::Vec4], out: &mut [Vec3]) {
-        for e in &self.entries {
-            let mut acc = pos[e.particle as usize].truncate() * e.weight;
-            for t in &self.terms[e.first as usize..(e.first + e.count) as usize] {
-                acc += pos[t.particle as usize].truncate() * t.weight;
-            }
-            out[e.vertex as usize] = acc;
+        let mut start = 0;
+        for (&v, &end) in self.mls_vertex.iter().zip(&self.mls_end) {
+            let terms = &self.mls_terms[start..end as usize];
+            out[v as usize] = terms.iter().fold(Vec3::ZERO, |acc, &(q, w)| {
+                acc + pos[q as usize].truncate() * w
+            });
+            start = end as usize;
         }
     }
 
