@@ -1,7 +1,7 @@
 //! The BSWDF of eq. (1)/(2), evaluated per node over contiguous slices:
 //!
 //! Based on: the simulation-LOD paper (`simulation-lod-treecut-softbody-bswdf.txt`), section 4 (animation features and the BSWDF, after
-//! its reference [SK11]).
+//! its reference \[SK11\]).
 //!
 //! ```text
 //! BSWDF(ωC, ωL, dC, x) = Illu(ωL, x) ∘ ( GlobalMotion(ωC, dC) ⊗ LocalMotion(ωC, dC, x) ) · Camera(ωC, x)

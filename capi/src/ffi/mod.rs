@@ -3,7 +3,7 @@
 //! `slod_default_*_desc`, `SlodResult` codes with a thread-local message, caller-owned buffers).
 //!
 //! This is the only module of slod that contains `unsafe` code or `extern "C"` items. Every
-//! function body runs inside [`boundary::boundary`], so no panic crosses into C.
+//! function body runs inside `boundary::boundary`, so no panic crosses into C.
 //!
 //! Files by subject: [`world`] (world, versions, desc guard), [`world_budget`] (the world
 //! step under one frame budget, per-object shares), [`view`] (camera, light),

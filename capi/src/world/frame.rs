@@ -11,7 +11,7 @@
 //! The budgeter does not own the objects: a frame is `begin_frame`, `advance_crowds`,
 //! `step_cloths`, `end_frame`, each given the objects by key, so [`super::World`] (Rust) and the C world (its own arenas, and bone-attached cloths
 //! that must see their character's new pose between the crowd and the cloth phase) share it.
-//! What runs on the threads is in [`super::jobs`].
+//! What runs on the threads is in the `jobs` module.
 
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};

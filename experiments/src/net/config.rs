@@ -77,7 +77,7 @@ impl NetConfig {
     }
 }
 
-/// Which run a [`NetRun`] is.
+/// Which run a [`NetRun`](super::NetRun) is.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum NetRunKind {
     /// Full resolution, no feedback: the reference every error is measured against.

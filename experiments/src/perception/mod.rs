@@ -280,7 +280,7 @@ pub fn run_scene(
 /// uniform at 30% / reference): a step of each in turn 0.708 / 0.530 / 1.404 ms (every run's
 /// data cold at each step, the feedback loop's many structures most), 10 steps per turn
 /// 0.482 / 0.358 / 1.026 ms.
-const INTERLEAVE_STEPS: usize = 10;
+pub const INTERLEAVE_STEPS: usize = 10;
 
 /// The runs of `jobs` and a timing-only reference run, advanced [`INTERLEAVE_STEPS`] steps of
 /// each in turn on one thread of their own (the order rotating with the turn): the results in

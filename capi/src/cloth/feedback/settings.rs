@@ -75,7 +75,7 @@ pub struct FeedbackSettings {
     /// BSWDF constants. The default is [`BswdfParams::default`] made two-sided (cloth has no
     /// back face).
     pub params: BswdfParams,
-    /// Weight of deformation, the feature added to the BSWDF's motion terms (see [`Feedback`]):
+    /// Weight of deformation, the feature added to the BSWDF's motion terms (see the `feedback` module docs):
     /// a node's salience is raised by `deformation_weight × ε`, with `ε` the mean relative
     /// length change `|ℓ/ℓ₀ − 1|` of its links (≥ 0; 0 turns it off). Default 20: a 5%
     /// stretch weighs as much as fully salient motion. Linear on purpose, unlike the motion
