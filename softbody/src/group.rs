@@ -51,19 +51,22 @@ impl Group {
         c
     }
 
-    /// One sequential sweep over this group's links.
+    /// One sequential sweep over this group's links. Solving a link moves every member by
+    /// `-w_i f_i Δλ n`, which moves the centroid by `-W_group Δλ n` (`W_group = Σ f_i² w_i`), so
+    /// the centroid is carried along instead of recomputed per link and the members are moved
+    /// once, by the sum, at the end: the same sweep as moving them link by link (up to
+    /// rounding), at one pass over the members instead of two per link.
     pub(crate) fn solve<P: Particles + ?Sized>(&mut self, p: &mut P, inv_h2: f32) {
         let mut w_group = 0.0f32;
+        let mut c = Vec3A::ZERO;
         for (&m, &f) in self.members.iter().zip(&self.fractions) {
-            w_group += f * f * p.get(m as usize).w;
+            let pm = p.get(m as usize);
+            w_group += f * f * pm.w;
+            c += Vec3A::from_vec4(pm) * f;
         }
         let weight = self.weight;
+        let mut moved = Vec3A::ZERO;
         for t in &mut self.targets {
-            // The centroid moves with every target solved, so recompute it (groups are small).
-            let mut c = Vec3A::ZERO;
-            for (&m, &f) in self.members.iter().zip(&self.fractions) {
-                c += Vec3A::from_vec4(p.get(m as usize)) * f;
-            }
             let q = p.get(t.particle as usize);
             let d = Vec3A::from_vec4(q) - c;
             let len = d.length().max(LENGTH_FLOOR);
@@ -73,11 +76,15 @@ impl Group {
             let dl =
                 (-(weight * cc) - at * t.lambda) / (weight * (wq + w_group) + at).max(DENOM_FLOOR);
             t.lambda += dl;
-            let n = (d * (dl / len)).extend(0.0);
-            p.set(t.particle as usize, q + n * wq);
+            let n = d * (dl / len);
+            p.set(t.particle as usize, q + n.extend(0.0) * wq);
+            c -= n * w_group;
+            moved += n;
+        }
+        if moved != Vec3A::ZERO {
             for (&m, &f) in self.members.iter().zip(&self.fractions) {
                 let pm = p.get(m as usize);
-                p.set(m as usize, pm - n * (pm.w * f));
+                p.set(m as usize, pm - moved.extend(0.0) * (pm.w * f));
             }
         }
     }
