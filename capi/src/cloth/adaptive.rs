@@ -73,8 +73,6 @@ pub struct AdaptiveCloth {
     node_radius: Vec<f32>,
     /// Per hierarchy node: the step and kind (1 refine, 2 coarse) of its last operation.
     last_op: Vec<(u64, u8)>,
-    /// Per hierarchy node, at an evaluation: touched a collider since the last one.
-    in_contact: Vec<bool>,
     ops: Vec<Op>,
     stats: ClothStats,
     /// How steps are timed (for the statistics and the time budget).
@@ -140,7 +138,6 @@ impl AdaptiveCloth {
             node_normals: vec![normal; len],
             node_radius,
             last_op: vec![(0, 0); len],
-            in_contact: Vec::new(),
             ops: Vec::new(),
             stats: ClothStats::default(),
             clock: StepClock::Wall,
@@ -435,11 +432,6 @@ impl AdaptiveCloth {
             self.body.settings().solver.dt,
             &recent,
         )?;
-        // Which nodes touched a collider: the dwell below never keeps them coarse.
-        let contact = &self.contact;
-        self.in_contact.clear();
-        self.in_contact
-            .extend((0..self.last_op.len()).map(|i| contact.touched(NodeId::new(i))));
         self.contact
             .raise_priorities(&self.body, &mut f.priorities, view);
         let h = self.body.hierarchy_arc().clone();
@@ -490,7 +482,8 @@ impl AdaptiveCloth {
                 };
                 let recent = |n: NodeId| recent_within(&self.last_op, now, n, dwell);
                 for &n in active {
-                    if recent(n) == Recent::Coarsened && !self.in_contact[n.index()] {
+                    // A node touching a collider is never kept coarse.
+                    if recent(n) == Recent::Coarsened && !self.contact.touched(n) {
                         f.priorities[n.index()] = 0.0;
                     }
                     if let Some(p) = h.parent(n)
@@ -502,6 +495,7 @@ impl AdaptiveCloth {
             }
             f.evaluator.set_settings(e);
         }
+        self.contact.forget();
         // The evaluator knows what beginning each operation locks (transitions lock their
         // neighbourhoods), so every operation of the batch begins, in the order given, and the
         // cut stays within the budget after each; a refusal is a bug, reported as an error.

@@ -69,9 +69,9 @@ impl ContactMemory {
     }
 
     /// At an evaluation: raises the priorities of touching nodes and their parents (see the
-    /// module docs), then forgets the contacts.
+    /// module docs). The contacts are kept until [`ContactMemory::forget`].
     pub(crate) fn raise_priorities(
-        &mut self,
+        &self,
         cloth: &softbody::TreeCutSoftBody,
         priorities: &mut [f32],
         view: &View,
@@ -97,8 +97,14 @@ impl ContactMemory {
                 *slot = slot.max(key);
             }
         }
-        self.touched.fill(false);
-        self.any = false;
+    }
+
+    /// Ends an evaluation: the contacts seen so far are forgotten.
+    pub(crate) fn forget(&mut self) {
+        if self.any {
+            self.touched.fill(false);
+            self.any = false;
+        }
     }
 }
 

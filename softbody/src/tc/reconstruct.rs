@@ -315,8 +315,9 @@ struct Entry {
     count: u32,
 }
 
-/// The weights of [`ReconstructionMode::Smooth`], which depend only on rest positions and on
-/// who is linked to whom: built once per topology generation
+/// The weights of [`ReconstructionMode::Smooth`] (and, in its own layout, of
+/// [`ReconstructionMode::Mls`]), which depend only on rest positions and on who is linked to
+/// whom: built once per topology generation
 /// ([`crate::SoftBody::topology_generation`]: any particle or link added, removed or
 /// renumbered), so a frame that did not change the cut only rotates and sums. The covering
 /// particle's share is kept even where its kernel vanishes (at a floor), neighbours' only
@@ -377,16 +378,16 @@ impl SmoothTable {
                 .map(|q| rest[p].distance_squared(rest[q.index()]))
                 .fold(f32::INFINITY, f32::min)
         }));
+        self.mode = mode;
+        self.generation = Some(generation);
+        if mode == ReconstructionMode::Mls {
+            self.rebuild_mls(body);
+            return;
+        }
         self.entries.clear();
         self.terms.clear();
         self.rotated.clear();
         self.rotated.resize(n, false);
-        self.mode = mode;
-        if mode == ReconstructionMode::Mls {
-            self.rebuild_mls(body);
-            self.generation = Some(generation);
-            return;
-        }
         for (p, &node) in body.particle_node.iter().enumerate() {
             for &v in h.vertices(node) {
                 let rv = h.rest_position(h.leaf_of_vertex(v));
@@ -420,7 +421,6 @@ impl SmoothTable {
                 });
             }
         }
-        self.generation = Some(generation);
     }
 
     /// The [`ReconstructionMode::Mls`] table: a coarse particle's block is refitted only when
@@ -455,14 +455,12 @@ impl SmoothTable {
                 ));
             }
             let slot = &mut self.blocks[node.index()];
-            if slot.as_ref().is_none_or(|b| b.key != self.key) {
-                *slot = Some(MlsBlock {
+            let block = match slot {
+                Some(b) if b.key == self.key => b,
+                _ => slot.insert(MlsBlock {
                     key: self.key.clone(),
                     rows: fit_mls(body, p, &self.rest, &self.support_sq),
-                });
-            }
-            let Some(block) = slot.as_ref() else {
-                continue;
+                }),
             };
             for (&v, row) in vertices.iter().zip(block.rows.chunks_exact(near.len())) {
                 self.mls_vertex.push(v);
