@@ -27,8 +27,9 @@
 //! Which is better was measured (test `mls_and_smooth_reconstructions_beat_rigid`): restricting
 //! a simulated full-resolution 33² net to uniform cuts of levels 1/2/3 and reconstructing it,
 //! RMS/max error of the diagonal: `Rigid` 0.0026/0.0046/0.0100 and 0.016/0.026/0.050, `Smooth`
-//! 0.0023/0.0037/0.0076 and 0.016/0.026/0.050, `Mls` 0.0021/0.0036/0.0082 and
-//! 0.012/0.014/0.030. On screen (the perception scenes at 30% of the nodes, feedback and
+//! 0.0023/0.0037/0.0076 and 0.016/0.026/0.050, `Mls` 0.0021/0.0036/0.0083 and
+//! 0.012/0.014/0.029. `Mls` also reproduces an affine map of the rest sheet on cuts that mix
+//! levels (test `mls_reproduces_affine_maps_on_mixed_cuts`, within 0.1% of the diagonal). On screen (the perception scenes at 30% of the nodes, feedback and
 //! uniform cuts) `Mls` and `Smooth` gave the same p99 within ±2% and the same maximum, and
 //! `Mls` costs a quarter to a fifth per frame on a kept cut (net at 30%, uniform: 0.16 → 0.03
 //! ms; 129² close-up: 0.75 → 0.18 ms), so it is the default.
@@ -74,7 +75,7 @@ use glam::{Mat3, Quat, Vec3};
 /// (`s_k` = `k`'s shortest link). All three are exact at the finest cut. Measured against
 /// full-resolution states (test `mls_and_smooth_reconstructions_beat_rigid`, RMS of the
 /// diagonal at levels 1/2/3): `Rigid` 0.0026/0.0046/0.0100, `Smooth` 0.0023/0.0037/0.0076,
-/// `Mls` 0.0021/0.0036/0.0082 with the lowest maximum, and it is the cheapest per frame, so it
+/// `Mls` 0.0021/0.0036/0.0083 with the lowest maximum, and it is the cheapest per frame, so it
 /// is the default.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum ReconstructionMode {
@@ -544,15 +545,27 @@ fn kernel_sq(d_sq: f32, support_sq: f32) -> f32 {
 
 /// The [`ReconstructionMode::Mls`] weights of coarse particle `p`'s patch ([`MlsBlock::rows`]).
 /// Its neighbourhood (itself with weight 1 and each linked neighbour `q` with
-/// `(1 − (d/2s_q)²)²` of their rest distance `d`, `s_q` its shortest link) is put in rest
-/// tangent coordinates `(u, v)` around `p` (scaled by `p`'s shortest link), and the weighted
-/// least-squares fit of the quadratic basis `1, u, v, u², uv, v²` to it is solved once (6×6
-/// normal equations, Cholesky); each vertex then gets, per neighbour, the weight
+/// `(1 − (d/2s)²)²` of their rest distance `d`, `s` the larger of `q`'s and `p`'s shortest
+/// links) is put in rest tangent coordinates `(u, v)` around `p` (scaled by `p`'s shortest
+/// link), and the weighted least-squares fit of the quadratic basis `1, u, v, u², uv, v²` to it
+/// is solved once (6×6 normal equations, Cholesky, in `f64`); each vertex then gets, per
+/// neighbour, the weight
 /// `w_k b_kᵀ A⁻¹ b(v)` with which that fit evaluated at the vertex sums the neighbours' current
 /// positions. The linear and quadratic coefficients are damped (ridge [`MLS_RIDGE_LINEAR`],
 /// [`MLS_RIDGE_QUADRATIC`] of the weight sum), the constant one not, so the weights always sum
 /// to 1: a neighbourhood too small or too straight to fix a coefficient falls back towards the
 /// lower-order fit instead of failing.
+///
+/// The support takes the larger shortest link so that a coarse node bordered by finer ones
+/// still fits its gradients from them: with `q`'s own shortest link, every kernel vanished at
+/// a coarse node's distance from its finer neighbours, the fit fell back to a constant, and
+/// such a node's patch was translated without rotating or stretching (39% of the diagonal under
+/// the affine map of test `mls_reproduces_affine_maps_on_mixed_cuts`; 2.5% of it, 14.5 px on
+/// the camera, on the perception net at rest). The linear ridge is kept tiny for the same
+/// reason: an underdetermined quadratic part (fewer than six points) amplifies any bias of the
+/// linear coefficients by about the ratio of the two ridges, and at 1e-4 it put vertices
+/// 0.4% of the diagonal off under an affine map; in `f64` 1e-8 still keeps a straight
+/// neighbourhood solvable.
 fn fit_mls(body: &TreeCutSoftBody, p: usize, rest: &[Vec3], support_sq: &[f32]) -> Vec<f32> {
     let h = &*body.hierarchy;
     let rp = rest[p];
@@ -560,7 +573,10 @@ fn fit_mls(body: &TreeCutSoftBody, p: usize, rest: &[Vec3], support_sq: &[f32]) 
     let mut scatter = Mat3::ZERO;
     for q in body.body.neighbours(ParticleId::new(p)) {
         let qi = q.index();
-        let w = kernel_sq(rp.distance_squared(rest[qi]), 4.0 * support_sq[qi]);
+        let w = kernel_sq(
+            rp.distance_squared(rest[qi]),
+            4.0 * support_sq[qi].max(support_sq[p]),
+        );
         near.push((qi, w));
         let d = rest[qi] - rp;
         scatter += Mat3::from_cols(d * d.x, d * d.y, d * d.z) * w;
@@ -577,18 +593,19 @@ fn fit_mls(body: &TreeCutSoftBody, p: usize, rest: &[Vec3], support_sq: &[f32]) 
     .max_by(|a, b| a.length_squared().total_cmp(&b.length_squared()))
     .and_then(Vec3::try_normalize)
     .unwrap_or(Vec3::Z);
-    let t1 = n.any_orthonormal_vector();
-    let t2 = n.cross(t1);
-    let scale = 1.0 / support_sq[p].sqrt().max(1e-12);
+    let t1 = n.any_orthonormal_vector().as_dvec3();
+    let t2 = n.as_dvec3().cross(t1);
+    let scale = 1.0 / f64::from(support_sq[p]).sqrt().max(1e-12);
     let basis = |r: Vec3| {
-        let d = (r - rp) * scale;
+        let d = (r - rp).as_dvec3() * scale;
         let (u, v) = (d.dot(t1), d.dot(t2));
         [1.0, u, v, u * u, u * v, v * v]
     };
-    let bases: Vec<[f32; 6]> = near.iter().map(|&(q, _)| basis(rest[q])).collect();
-    let mut a = [[0f32; 6]; 6];
+    let bases: Vec<[f64; 6]> = near.iter().map(|&(q, _)| basis(rest[q])).collect();
+    let mut a = [[0f64; 6]; 6];
     let mut w_sum = 0.0;
     for (b, &(_, w)) in bases.iter().zip(&near) {
+        let w = f64::from(w);
         for i in 0..6 {
             for j in 0..6 {
                 a[i][j] += w * b[i] * b[j];
@@ -602,43 +619,42 @@ fn fit_mls(body: &TreeCutSoftBody, p: usize, rest: &[Vec3], support_sq: &[f32]) 
         } else {
             MLS_RIDGE_QUADRATIC
         };
-        row[i] += ridge * w_sum;
+        row[i] += f64::from(ridge) * w_sum;
     }
     let l = cholesky6(&a);
     let vertices = h.vertices(body.particle_node[p]);
     let mut rows = Vec::with_capacity(vertices.len() * near.len());
     for &v in vertices {
         let z = solve6(&l, basis(h.rest_position(h.leaf_of_vertex(v))));
-        rows.extend(
-            bases
-                .iter()
-                .zip(&near)
-                .map(|(b, &(_, w))| w * b.iter().zip(&z).map(|(x, y)| x * y).sum::<f32>()),
-        );
+        rows.extend(bases.iter().zip(&near).map(|(b, &(_, w))| {
+            (f64::from(w) * b.iter().zip(&z).map(|(x, y)| x * y).sum::<f64>()) as f32
+        }));
     }
     rows
 }
 
 /// Ridge on the linear coefficients of [`ReconstructionMode::Mls`]'s fit, relative to the
-/// weight sum: small, it only keeps a straight neighbourhood's normal equations solvable.
-const MLS_RIDGE_LINEAR: f32 = 1e-4;
+/// weight sum: tiny, it only keeps a straight neighbourhood's normal equations solvable (see
+/// `fit_mls`: a larger one biases the fit of an affine map).
+const MLS_RIDGE_LINEAR: f32 = 1e-8;
 /// Ridge on the quadratic coefficients, relative to the weight sum (coordinates in units of
 /// the particle's shortest link). Chosen on the restriction test
 /// (`mls_and_smooth_reconstructions_beat_rigid`, a 33² net restricted to uniform cuts of
 /// levels 1–3): 1e-3, 1e-2 and 1e-1 gave RMS 0.00217/0.00375/0.00882, 0.00206/0.00355/0.00823 and
-/// 0.00218/0.00407/0.01095 of the diagonal.
+/// 0.00218/0.00407/0.01095 of the diagonal (with the earlier linear ridge of 1e-4; with 1e-8 and
+/// the mixed-level support, 1e-2 gives 0.00207/0.00361/0.00833).
 const MLS_RIDGE_QUADRATIC: f32 = 1e-2;
 
 /// Cholesky factor of a symmetric positive definite 6×6 matrix (lower triangle; pivots are
 /// floored, the ridge keeps them positive).
-fn cholesky6(a: &[[f32; 6]; 6]) -> [[f32; 6]; 6] {
-    let mut l = [[0f32; 6]; 6];
+fn cholesky6(a: &[[f64; 6]; 6]) -> [[f64; 6]; 6] {
+    let mut l = [[0f64; 6]; 6];
     for i in 0..6 {
         for j in 0..=i {
-            let dot: f32 = l[i][..j].iter().zip(&l[j][..j]).map(|(x, y)| x * y).sum();
+            let dot: f64 = l[i][..j].iter().zip(&l[j][..j]).map(|(x, y)| x * y).sum();
             let s = a[i][j] - dot;
             l[i][j] = if i == j {
-                s.max(1e-20).sqrt()
+                s.max(1e-30).sqrt()
             } else {
                 s / l[j][j]
             };
@@ -648,15 +664,15 @@ fn cholesky6(a: &[[f32; 6]; 6]) -> [[f32; 6]; 6] {
 }
 
 /// Solves `L Lᵀ z = b`.
-fn solve6(l: &[[f32; 6]; 6], b: [f32; 6]) -> [f32; 6] {
-    let mut y = [0f32; 6];
+fn solve6(l: &[[f64; 6]; 6], b: [f64; 6]) -> [f64; 6] {
+    let mut y = [0f64; 6];
     for i in 0..6 {
-        let dot: f32 = l[i][..i].iter().zip(&y[..i]).map(|(x, y)| x * y).sum();
+        let dot: f64 = l[i][..i].iter().zip(&y[..i]).map(|(x, y)| x * y).sum();
         y[i] = (b[i] - dot) / l[i][i];
     }
-    let mut z = [0f32; 6];
+    let mut z = [0f64; 6];
     for i in (0..6).rev() {
-        let dot: f32 = (i + 1..6).map(|k| l[k][i] * z[k]).sum();
+        let dot: f64 = (i + 1..6).map(|k| l[k][i] * z[k]).sum();
         z[i] = (y[i] - dot) / l[i][i];
     }
     z
