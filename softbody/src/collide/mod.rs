@@ -59,6 +59,11 @@ use slod_core::{Arena, Handle};
 /// such overlaps within a few steps without a visible jump.
 pub const MAX_SEPARATION_SPEED: f32 = 1.0;
 
+/// Passes of [`Colliders::push_out`] at most: the first over every point, each later one over
+/// the points the one before moved (a point pushed out of one collider into an overlapping
+/// one). Two overlapping capsules need two; four leave room for a joint where three meet.
+pub const PUSH_OUT_PASSES: usize = 4;
+
 /// Names a collider of a body. Generation-checked: a removed collider's id is refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub struct ColliderId(pub Handle);
@@ -271,28 +276,75 @@ impl Colliders {
     }
 
     /// Moves every point of `points` that is closer to a collider's shape than its thickness
-    /// out to that distance, along the shape's normal (colliders in slot order, one pass: a
-    /// point pushed out of one into another where two overlap stays there). For the surface a
-    /// viewer sees: a coarse node keeps its particle out of a collider, but the finest
-    /// vertices placed between particles held outside a curved collider cut the chord through
-    /// it; the full-resolution cloth keeps every vertex at the thickness.
+    /// out to that distance, along the shape's normal. For the surface a viewer sees: a coarse
+    /// node keeps its particle out of a collider, but the finest vertices placed between
+    /// particles held outside a curved collider cut the chord through it; the full-resolution
+    /// cloth keeps every vertex at the thickness.
+    ///
+    /// Colliders are visited in slot order; where two overlap (the capsules of a character's
+    /// joints), a point pushed out of one may land inside the other, so the points a pass moved
+    /// are checked against every collider again, up to [`PUSH_OUT_PASSES`] passes in all (a
+    /// point in the crease of two convex shapes ends on their union's surface, up to what the
+    /// last pass left). Points no pass moved are read once per collider, as before.
     pub fn push_out(&self, points: &mut [Vec3]) {
+        let mut moved: Vec<u32> = Vec::new();
+        self.push_out_pass(points, None, &mut moved);
+        let mut again = Vec::new();
+        for _ in 1..PUSH_OUT_PASSES {
+            if moved.is_empty() {
+                break;
+            }
+            again.clear();
+            self.push_out_pass(points, Some(&moved), &mut again);
+            std::mem::swap(&mut moved, &mut again);
+        }
+    }
+
+    /// One pass of [`Colliders::push_out`] over `only` (every point when `None`); the indices
+    /// of the points it moved go to `moved` (each once, in increasing order).
+    fn push_out_pass(&self, points: &mut [Vec3], only: Option<&[u32]>, moved: &mut Vec<u32>) {
+        let hit = |i: usize, moved: &mut Vec<u32>| {
+            if moved.last() != Some(&(i as u32)) {
+                moved.push(i as u32);
+            }
+        };
         for (_, c) in self.arena.iter() {
             let t = &c.desc.transform;
             let (lo, hi) = c.desc.shape.bounds(t, c.desc.thickness);
             let placed = Placed::new(&c.desc.shape, t);
-            for p in points.iter_mut() {
+            let push = |p: &mut Vec3| {
                 let x = Vec3A::from(*p);
                 if x.cmplt(lo).any() || x.cmpgt(hi).any() {
-                    continue;
+                    return false;
                 }
                 let (d, n) = placed.distance(x);
                 let depth = c.desc.thickness - d;
                 if depth > 0.0 {
                     *p = Vec3::from(x + n * depth);
+                    return true;
+                }
+                false
+            };
+            match only {
+                None => {
+                    for (i, p) in points.iter_mut().enumerate() {
+                        if push(p) {
+                            hit(i, moved);
+                        }
+                    }
+                }
+                Some(only) => {
+                    for &i in only {
+                        if push(&mut points[i as usize]) {
+                            hit(i as usize, moved);
+                        }
+                    }
                 }
             }
         }
+        // Several colliders may have moved the same points: each index once, in order.
+        moved.sort_unstable();
+        moved.dedup();
     }
 
     /// Broad phase for one step: which colliders may touch which particles (see the module

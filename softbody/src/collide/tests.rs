@@ -365,3 +365,49 @@ fn penetration_is_measured_against_the_bare_shape() {
     assert!((c.max_penetration(&pts) - 0.01).abs() < 1e-5);
     assert_eq!(c.max_penetration(&pts[1..]), 0.0);
 }
+
+/// Where two colliders overlap (two capsules side by side, as at a joint or between the
+/// legs), a point pushed out of one can land in the other; `push_out` checks the points it
+/// moved again, so none is left inside either. One pass over the colliders (what it did
+/// before) leaves some.
+#[test]
+fn push_out_leaves_no_point_inside_overlapping_colliders() {
+    let mut c = Colliders::default();
+    let capsule = Shape::Capsule {
+        radius: 0.1,
+        half_length: 0.3,
+    };
+    for x in [0.0, 0.12] {
+        c.add(ColliderDesc {
+            shape: capsule,
+            transform: Transform {
+                position: Vec3::new(x, 0.0, 0.0),
+                rotation: Quat::IDENTITY,
+            },
+            thickness: 0.01,
+            ..ColliderDesc::default()
+        })
+        .unwrap();
+    }
+    let mut points = Vec::new();
+    for i in 0..24 {
+        for j in 0..8 {
+            for k in 0..24 {
+                points.push(Vec3::new(
+                    -0.1 + 0.32 * i as f32 / 23.0,
+                    -0.2 + 0.4 * j as f32 / 7.0,
+                    -0.12 + 0.24 * k as f32 / 23.0,
+                ));
+            }
+        }
+    }
+    assert!(c.max_penetration(&points) > 0.05, "the points start inside");
+    let mut once = points.clone();
+    let mut moved = Vec::new();
+    c.push_out_pass(&mut once, None, &mut moved);
+    let left = c.max_penetration(&once);
+    assert!(left > 1e-3, "one pass leaves points inside: {left}");
+    c.push_out(&mut points);
+    let left = c.max_penetration(&points);
+    assert_eq!(left, 0.0, "push_out left a point {left} m inside");
+}
