@@ -559,6 +559,15 @@ impl SoftBody {
         self.links.generation()
     }
 
+    /// The particles whose neighbourhoods changed after topology generation `since` (see
+    /// `LinkStore::changed_since`); `None`: unknown, rebuild whatever depends on them.
+    pub(crate) fn topology_changed_since(
+        &self,
+        since: u64,
+    ) -> Option<impl Iterator<Item = u32> + '_> {
+        self.links.changed_since(since)
+    }
+
     /// Incident links with the particle at the other end.
     pub(crate) fn incident_raw(&self, p: u32) -> &[(LinkId, u32)] {
         self.links.incident(p)

@@ -252,6 +252,12 @@ pub(crate) struct LinkStore {
     /// removed, a particle moved, a renumbering): what a cache derived from the neighbourhoods
     /// (the reconstruction's weights) compares to know it is still valid.
     generation: u64,
+    /// The particles whose incident lists changed, each stamped with the generation of the
+    /// change: complete for every change after generation `log_from` (see
+    /// [`LinkStore::changed_since`]). Bounded: when it outgrows [`LinkStore::log_capacity`] it
+    /// is cleared and `log_from` moves to the current generation.
+    log: Vec<(u64, u32)>,
+    log_from: u64,
 }
 
 impl LinkStore {
@@ -266,9 +272,39 @@ impl LinkStore {
         self.generation
     }
 
+    /// The particles (current indices; some may be past the particle count now) whose incident
+    /// lists changed after generation `since` — links added or removed, the particle at a
+    /// link's other end renumbered, the particle added, moved or removed — with repeats;
+    /// `None` when the log no longer reaches back that far (a renumbering, or more changes than
+    /// it keeps), so the caller must rebuild from nothing. Lets a cache derived from the
+    /// neighbourhoods (the reconstruction's table) redo only what changed.
+    pub(crate) fn changed_since(&self, since: u64) -> Option<impl Iterator<Item = u32> + '_> {
+        (since >= self.log_from).then(|| {
+            let start = self.log.partition_point(|&(g, _)| g <= since);
+            self.log[start..].iter().map(|&(_, p)| p)
+        })
+    }
+
+    /// Entries the change log keeps before it starts over: a few per particle, so that a
+    /// reader that catches up every frame finds everything, and one that does not costs
+    /// bounded memory.
+    fn log_capacity(&self) -> usize {
+        256 + 8 * self.incident.len()
+    }
+
+    /// Logs a change to `p`'s incident list at the current generation.
+    fn touch(&mut self, p: u32) {
+        if self.log.len() >= self.log_capacity() {
+            self.log.clear();
+            self.log_from = self.generation;
+        }
+        self.log.push((self.generation, p));
+    }
+
     /// Grows the per-particle tables to `n` particles.
     pub(crate) fn add_particle(&mut self) {
         self.generation += 1;
+        self.touch(self.incident.len() as u32);
         self.colours.push(0);
         let list = self
             .spare_lists
@@ -339,6 +375,9 @@ impl LinkStore {
                 .rev()
                 .filter(|&i| self.slots[i as usize].batch == FREE),
         );
+        // Every index changed: the log cannot say what, readers rebuild.
+        self.log.clear();
+        self.log_from = self.generation;
     }
 
     /// Colours and stores a link under a free id.
@@ -369,6 +408,8 @@ impl LinkStore {
         self.slots[id.index()] = slot;
         self.incident[a as usize].push((id, b));
         self.incident[b as usize].push((id, a));
+        self.touch(a);
+        self.touch(b);
         self.len += 1;
     }
 
@@ -422,6 +463,7 @@ impl LinkStore {
                 .position(|&(l, _)| l == id)
                 .expect("incident list out of sync");
             list.swap_remove(at);
+            self.touch(p);
         }
         self.slots[id.index()] = Slot {
             batch: FREE,
@@ -435,6 +477,7 @@ impl LinkStore {
     /// the ends back from the blocks: the incident list knows them).
     pub(crate) fn remove_all_of(&mut self, p: u32) {
         self.generation += 1;
+        self.touch(p);
         let mut list = std::mem::take(&mut self.incident[p as usize]);
         for &(id, other) in &list {
             let slot = self.slots[id.index()];
@@ -458,6 +501,7 @@ impl LinkStore {
                 .position(|&(l, _)| l == id)
                 .expect("incident list out of sync");
             olist.swap_remove(at);
+            self.touch(other);
             self.slots[id.index()] = Slot {
                 batch: FREE,
                 index: 0,
@@ -493,9 +537,12 @@ impl LinkStore {
     pub(crate) fn move_particle(&mut self, p: u32, last: u32) {
         self.generation += 1;
         debug_assert!(self.incident[p as usize].is_empty());
+        self.touch(p);
+        self.touch(last);
         if p != last {
             let moved = std::mem::take(&mut self.incident[last as usize]);
             for &(id, other) in &moved {
+                self.touch(other);
                 for e in &mut self.incident[other as usize] {
                     if e.0 == id {
                         e.1 = p;
