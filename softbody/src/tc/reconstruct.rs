@@ -369,8 +369,9 @@ pub(super) struct SmoothTable {
     /// Vertices and terms the live segments hold (the arrays also hold garbage).
     live_entries: usize,
     live_terms: usize,
-    /// Scratch of an update: particles to redo, and marks (bit 0: its neighbourhood changed,
-    /// bit 1: its segment is to be redone).
+    /// Scratch of an update: particles to redo, and marks per particle (its neighbourhood
+    /// changed; its segment is to be redone; its shortest link changed; its shortest link was
+    /// checked).
     redo: Vec<u32>,
     marks: Vec<u8>,
 }
@@ -471,10 +472,10 @@ impl SmoothTable {
     /// another mode). When the body's change log reaches back to it
     /// (`SoftBody::topology_changed_since`), only the segments the changes can have touched
     /// are redone: those of the particles whose incident lists changed (`D`, plus any whose
-    /// node differs from the one its segment was made for) and of their neighbours (whose
-    /// blocks' keys name them, by index, node and shortest link). A particle's shortest link
-    /// is recomputed for `D` and its neighbours; where one outside `D` changed, its neighbours'
-    /// segments are redone too. Otherwise, or when stale segments outweigh live ones, every
+    /// node differs from the one its segment was made for: a particle outside `D` keeps its
+    /// neighbours, their order, indices and nodes), and of the neighbours of every particle
+    /// whose shortest link changed (their blocks' keys name it). Shortest links are recomputed
+    /// for `D` and its neighbours. Otherwise, or when stale segments outweigh live ones, every
     /// segment is made again. Either way every vertex gets the terms, in the order, a table
     /// made from nothing gives: the same bits (test
     /// `cached_reconstruction_follows_every_topology_change`).
@@ -490,6 +491,8 @@ impl SmoothTable {
         };
         const CHANGED: u8 = 1;
         const REDO: u8 = 2;
+        const SUPPORT: u8 = 4;
+        const SEEN: u8 = 8;
         self.marks.clear();
         self.marks.resize(n, 0);
         self.redo.clear();
@@ -525,38 +528,44 @@ impl SmoothTable {
             self.rest[p as usize] = h.rest_position(node);
             self.mls_node[p as usize] = node.index() as u32;
         }
-        // Shortest links of the changed particles and their neighbours; every changed
-        // particle's and every neighbour's segment is redone.
+        // Shortest links: recomputed for the changed particles and their neighbours (a
+        // neighbour's changes only where a changed particle's rest position did). Every changed
+        // particle's segment is redone; so are the segments of the neighbours of any particle
+        // whose shortest link changed (their keys name it), and that particle's own.
         for k in 0..changed_count {
             let p = self.redo[k] as usize;
-            self.support_sq[p] = support_sq_of(body, &self.rest, p);
-            self.marks[p] |= REDO;
+            let support = support_sq_of(body, &self.rest, p);
+            if support.to_bits() != self.support_sq[p].to_bits() {
+                self.support_sq[p] = support;
+                self.marks[p] |= SUPPORT;
+            }
+        }
+        for k in 0..changed_count {
+            let p = self.redo[k] as usize;
             for q in body.body.neighbours(ParticleId::new(p)) {
                 let qi = q.index();
                 if self.marks[qi] != 0 {
                     continue;
                 }
-                self.marks[qi] = REDO;
-                self.redo.push(qi as u32);
+                self.marks[qi] = SEEN;
                 let support = support_sq_of(body, &self.rest, qi);
                 if support.to_bits() != self.support_sq[qi].to_bits() {
-                    // Its neighbours' keys name its shortest link.
                     self.support_sq[qi] = support;
-                    self.marks[qi] |= CHANGED;
+                    self.marks[qi] |= SUPPORT | REDO;
+                    self.redo.push(qi as u32);
                 }
             }
         }
-        let ring = self.redo.len();
-        for k in changed_count..ring {
-            let q = self.redo[k] as usize;
-            if self.marks[q] & CHANGED == 0 {
+        for k in 0..self.redo.len() {
+            let p = self.redo[k] as usize;
+            if self.marks[p] & SUPPORT == 0 {
                 continue;
             }
-            for r in body.body.neighbours(ParticleId::new(q)) {
-                let ri = r.index();
-                if self.marks[ri] == 0 {
-                    self.marks[ri] = REDO;
-                    self.redo.push(ri as u32);
+            for q in body.body.neighbours(ParticleId::new(p)) {
+                let qi = q.index();
+                if self.marks[qi] & (CHANGED | REDO) == 0 {
+                    self.marks[qi] |= REDO;
+                    self.redo.push(qi as u32);
                 }
             }
         }
