@@ -285,11 +285,12 @@ impl LinkStore {
         })
     }
 
-    /// Entries the change log keeps before it starts over: a few per particle, so that a
-    /// reader that catches up every frame finds everything, and one that does not costs
-    /// bounded memory.
+    /// Entries the change log keeps before it starts over (32 bytes per particle): far more
+    /// than a frame's operations log (a transition's begin or end touches a few dozen
+    /// particles), so a reader that catches up every frame finds everything, and one that does
+    /// not costs bounded memory.
     fn log_capacity(&self) -> usize {
-        256 + 8 * self.incident.len()
+        256 + 2 * self.incident.len()
     }
 
     /// Logs a change to `p`'s incident list at the current generation.
