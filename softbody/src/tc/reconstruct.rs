@@ -484,7 +484,8 @@ impl SmoothTable {
         self.blocks.resize_with(h.len(), || None);
         let n = body.particle_node.len();
         let changed = since.and_then(|g| body.body.topology_changed_since(g));
-        let garbage = self.mls_vertex.len() > 2 * self.live_entries + 4096;
+        let garbage = self.mls_vertex.len() > 2 * self.live_entries + 4096
+            || self.mls_terms.len() > 2 * self.live_terms + 4096;
         let Some(changed) = changed.filter(|_| !garbage) else {
             self.rebuild_mls_all(body);
             return;
