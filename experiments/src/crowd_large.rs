@@ -307,8 +307,15 @@ impl Sharded {
     }
 }
 
-/// Frame times of a one-thread run and a parallel run advanced in lockstep (a frame of one,
-/// then the same frame of the other, so a change of machine load hits both alike).
+/// Frames of each side per turn of [`Lockstep::run`]. Frame by frame (one), each frame started
+/// while the other pool's workers were still spinning idle on this 2-core machine and woke its
+/// own, and the two sides' data evicted each other's every frame: the shared-pose
+/// 1,000-character pipeline read 1.15–1.53× on two threads over six runs, 1.90–1.93× in turns
+/// of four (two runs of `crowd_large held 0.6 1000` with `SHARED_MIB=64`).
+const LOCKSTEP_BLOCK: usize = 4;
+
+/// Frame times of a one-thread run and a parallel run advanced in lockstep (a few frames of
+/// one, then the same frames of the other, so a change of machine load hits both alike).
 struct Lockstep {
     serial_ms: f64,
     parallel_ms: f64,
@@ -316,8 +323,10 @@ struct Lockstep {
 }
 
 impl Lockstep {
-    /// Runs `serial` on the one-thread pool `one` and then `parallel` on `many`, frame by frame,
-    /// for `setup.warmup_frames + setup.frames` frames, and keeps the measured ones.
+    /// Runs `serial` on the one-thread pool `one` and `parallel` on `many`, in turns of
+    /// [`LOCKSTEP_BLOCK`] frames each, for `setup.warmup_frames + setup.frames` frames each,
+    /// and keeps the measured ones but the first of each turn (it pays for the other pool's
+    /// workers going idle and its own waking).
     fn run(
         setup: &LargeSetup,
         (one, many): (&rayon::ThreadPool, &rayon::ThreadPool),
@@ -325,16 +334,27 @@ impl Lockstep {
         mut parallel: impl FnMut() -> Result<(), CrowdError> + Send,
     ) -> Result<Lockstep, CrowdError> {
         let (mut serial_ms, mut parallel_ms) = (Vec::new(), Vec::new());
-        for f in 0..setup.warmup_frames + setup.frames {
-            let t0 = Instant::now();
-            one.install(&mut serial)?;
-            let t1 = Instant::now();
-            many.install(&mut parallel)?;
-            let (s, p) = (t1 - t0, t1.elapsed());
-            if f >= setup.warmup_frames {
-                serial_ms.push(s.as_secs_f64() * 1e3);
-                parallel_ms.push(p.as_secs_f64() * 1e3);
+        let total = setup.warmup_frames + setup.frames;
+        let mut first = 0;
+        while first < total {
+            let end = (first + LOCKSTEP_BLOCK).min(total);
+            for (pool, side, times) in [
+                (
+                    one,
+                    &mut serial as &mut (dyn FnMut() -> Result<(), CrowdError> + Send),
+                    &mut serial_ms,
+                ),
+                (many, &mut parallel, &mut parallel_ms),
+            ] {
+                for f in first..end {
+                    let t = Instant::now();
+                    pool.install(&mut *side)?;
+                    if f >= setup.warmup_frames && f > first {
+                        times.push(t.elapsed().as_secs_f64() * 1e3);
+                    }
+                }
             }
+            first = end;
         }
         let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
         let median = |v: &mut Vec<f64>| {
