@@ -234,12 +234,13 @@ fn render_runs(outcomes: &[SceneOutcome], config: &PerceptionConfig) -> String {
         t.note(format!(
             "twin floor (the reference perturbed by 1 µm): rms {} px, max {} px; ms/frame = step + \
              evaluation + reconstruction (the reference needs none), one thread's CPU time, all \
-             runs of the scene interleaved step by step; reconstruct: its share; \
+             runs of the scene interleaved, {} steps of each in turn; reconstruct: its share; \
              coarse / fine p99: at the vertices coarse nodes cover (the error a node's deviation \
              estimate is about) and at those simulated at the finest level (the drift the coarse \
              parts' dynamics carry across the cloth)",
             num(o.twin_floor.rms_px, 3),
-            num(o.twin_floor.max_px, 3)
+            num(o.twin_floor.max_px, 3),
+            slod_experiments::perception::INTERLEAVE_STEPS
         ));
         out.push(t.render());
     }

@@ -356,8 +356,9 @@ struct Meters {
 }
 
 /// One run in progress, advanced a step at a time, so that [`super::run_scene`] can interleave
-/// the runs of a scene step by step: every strategy then meets the same moments of a shared,
-/// noisy machine, and the ratios between their costs are measured in one window.
+/// the runs of a scene ([`super::INTERLEAVE_STEPS`] steps of each in turn): every strategy then
+/// meets the same moments of a shared, noisy machine, and the ratios between their costs are
+/// measured in one window.
 ///
 /// A [`Strategy::Reference`] run only steps the full-resolution cloth and times it (its error
 /// is zero by construction: it is the reference); every other run is measured against the

@@ -56,8 +56,8 @@ fn feedback_beats_uniform_and_random_on_screen_at_equal_nodes() {
     }
 }
 
-/// Interleaving a scene's runs step by step (to time them in one window) changes nothing they
-/// compute: `run_scene`'s figures are those of each run alone, on a short-horizon scene too,
+/// Interleaving a scene's runs a few steps at a time (to time them in one window) changes
+/// nothing they compute: `run_scene`'s figures are those of each run alone, on a short-horizon scene too,
 /// and the parallel mode gives them as well.
 #[test]
 fn interleaved_runs_compute_what_runs_alone_compute() {

@@ -410,19 +410,8 @@ impl SmoothTable {
         }
         let h = &*body.hierarchy;
         let n = body.particle_node.len();
-        self.rest.clear();
-        self.rest
-            .extend(body.particle_node.iter().map(|&node| h.rest_position(node)));
+        self.fill_rest_and_support(body);
         let rest = &self.rest;
-        // Per particle, its shortest link's squared rest length: each neighbour's rest offset
-        // is compared squared, with no square root or division per vertex and neighbour.
-        self.support_sq.clear();
-        self.support_sq.extend((0..n).map(|p| {
-            body.body
-                .neighbours(ParticleId::new(p))
-                .map(|q| rest[p].distance_squared(rest[q.index()]))
-                .fold(f32::INFINITY, f32::min)
-        }));
         self.mode = mode;
         self.generation = Some(generation);
         self.entries.clear();
@@ -461,6 +450,20 @@ impl SmoothTable {
                     count: self.terms.len() as u32 - first,
                 });
             }
+        }
+    }
+
+    /// Every particle's rest position and squared shortest link ([`support_sq_of`]), the
+    /// scratch both tables are built from.
+    fn fill_rest_and_support(&mut self, body: &TreeCutSoftBody) {
+        let h = &*body.hierarchy;
+        self.rest.clear();
+        self.rest
+            .extend(body.particle_node.iter().map(|&node| h.rest_position(node)));
+        self.support_sq.clear();
+        for p in 0..body.particle_node.len() {
+            let support = support_sq_of(body, &self.rest, p);
+            self.support_sq.push(support);
         }
     }
 
@@ -592,16 +595,8 @@ impl SmoothTable {
     /// Makes every segment of the [`ReconstructionMode::Mls`] table again, from nothing but the
     /// blocks.
     fn rebuild_mls_all(&mut self, body: &TreeCutSoftBody) {
-        let h = &*body.hierarchy;
         let n = body.particle_node.len();
-        self.rest.clear();
-        self.rest
-            .extend(body.particle_node.iter().map(|&node| h.rest_position(node)));
-        self.support_sq.clear();
-        for p in 0..n {
-            let support = support_sq_of(body, &self.rest, p);
-            self.support_sq.push(support);
-        }
+        self.fill_rest_and_support(body);
         self.mls_node.clear();
         self.mls_node
             .extend(body.particle_node.iter().map(|n| n.index() as u32));
