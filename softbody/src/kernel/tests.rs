@@ -187,3 +187,74 @@ fn detection_is_consistent() {
     assert!(KernelPath::detect().is_supported());
     assert!(KernelPath::Scalar.is_supported());
 }
+
+/// The last, partial block of a batch is solved in vector lanes on the paths that have them:
+/// every length of it (1 to 15 links, alone and after whole blocks) gives the scalar path's
+/// bits, and the lanes past the batch's length — which after a swap-removal hold a removed
+/// link, with particle indices that may no longer exist — are neither read through nor
+/// written: out-of-range indices and NaN parameters there change nothing, and keep their bits.
+#[test]
+fn partial_blocks_match_scalar_and_leave_spare_lanes_alone() {
+    for whole in [0usize, 2] {
+        for rest in 1..LANES {
+            let len = whole * LANES + rest;
+            let n = 2 * len + 5;
+            let (p0, mut b0) = batch(100 + len as u64, n, len);
+            let last = b0.last_mut().expect("a partial block");
+            for k in rest..LANES {
+                last.a[k] = (n + 1000 + k) as u32;
+                last.b[k] = u32::MAX - k as u32;
+                last.rest[k] = f32::NAN;
+                last.compliance[k] = f32::NAN;
+                last.weight[k] = f32::NAN;
+                last.lambda[k] = f32::from_bits(0x7fc0_0000 + k as u32);
+            }
+            let spare = |b: &[Block]| -> Vec<u32> {
+                let last = b.last().expect("a partial block");
+                (rest..LANES)
+                    .flat_map(|k| {
+                        [
+                            last.a[k],
+                            last.b[k],
+                            last.rest[k].to_bits(),
+                            last.weight[k].to_bits(),
+                            last.lambda[k].to_bits(),
+                        ]
+                    })
+                    .collect()
+            };
+            for fresh in [false, true] {
+                let (mut p_ref, mut b_ref) = (p0.clone(), b0.clone());
+                for _ in 0..3 {
+                    solve_batch(
+                        KernelPath::Scalar,
+                        p_ref.as_mut_slice(),
+                        &mut b_ref,
+                        len,
+                        3600.0,
+                        fresh,
+                    );
+                }
+                for path in KernelPath::supported() {
+                    let (mut p, mut b) = (p0.clone(), b0.clone());
+                    for _ in 0..3 {
+                        solve_batch(path, p.as_mut_slice(), &mut b, len, 3600.0, fresh);
+                    }
+                    let what = format!("{path:?}, {len} links, fresh {fresh}");
+                    assert_eq!(bits(&p), bits(&p_ref), "{what}");
+                    let lam = |b: &[Block]| -> Vec<u32> {
+                        b.iter()
+                            .flat_map(|blk| blk.lambda.map(f32::to_bits))
+                            .collect()
+                    };
+                    assert_eq!(lam(&b), lam(&b_ref), "{what}");
+                    assert_eq!(spare(&b), spare(&b0), "{what}");
+                }
+                // (The test batch's first link has weight 0: one link alone moves nothing.)
+                if len > 2 {
+                    assert_ne!(bits(&p_ref), bits(&p0), "the sweep moved something");
+                }
+            }
+        }
+    }
+}

@@ -54,6 +54,24 @@ pub(super) fn blocks_avx2<P: Particles + ?Sized, const FRESH: bool>(
     blocks.len()
 }
 
+/// Solves the first `len` (`1..LANES`) links of a batch's last, partial block with AVX2, eight
+/// lanes at a time; returns `false` (nothing solved) if the CPU lacks AVX2. The same bits as
+/// the scalar loop it replaces.
+pub(super) fn partial_avx2<P: Particles + ?Sized, const FRESH: bool>(
+    p: &mut P,
+    blk: &mut Block,
+    len: usize,
+    inv_h2: f32,
+) -> bool {
+    if !is_x86_feature_detected!("avx2") {
+        return false;
+    }
+    // SAFETY: the CPU supports AVX2 (checked just above), which is the only requirement for
+    // calling a function compiled with `target_feature(enable = "avx2")`.
+    unsafe { run_partial_avx2::<P, FRESH>(p, blk, len, inv_h2) };
+    true
+}
+
 #[target_feature(enable = "avx512f")]
 fn run_avx512<P: Particles + ?Sized, const FRESH: bool>(
     p: &mut P,
@@ -278,6 +296,30 @@ macro_rules! scatter8 {
     }};
 }
 
+/// [`scatter8!`] for the first `n` of links `o..o + 8` only.
+macro_rules! scatter8_first {
+    ($p:expr, $idx:expr, $o:expr, $xyzw:expr, $n:expr) => {{
+        let (p, idx, o, n): (&mut P, &[u32; LANES], usize, usize) = ($p, $idx, $o, $n);
+        let r = transpose!(
+            $xyzw,
+            _mm256_unpacklo_ps,
+            _mm256_unpackhi_ps,
+            _mm256_shuffle_ps
+        );
+        for j in 0..4 {
+            if j < n {
+                p.set(idx[o + j] as usize, _mm256_castps256_ps128(r[j]).into());
+            }
+            if 4 + j < n {
+                p.set(
+                    idx[o + 4 + j] as usize,
+                    _mm256_extractf128_ps::<1>(r[j]).into(),
+                );
+            }
+        }
+    }};
+}
+
 /// New λ and new `x, y, z, w` of both ends, for links `o..o + 8` of a block.
 type Solved8 = (__m256, [__m256; 4], [__m256; 4]);
 
@@ -324,5 +366,40 @@ fn run_avx2<P: Particles + ?Sized, const FRESH: bool>(
         scatter8!(p, &blk.b, 0, nb0);
         scatter8!(p, &blk.a, 8, na1);
         scatter8!(p, &blk.b, 8, nb1);
+    }
+}
+
+/// The first `len` links of a partial block (see [`partial_avx2`]). Lanes from `len` on are
+/// not links: whatever they hold (a removed link's data, particle indices that may be out of
+/// range now) is never gathered through nor written back. Their particle indices are replaced
+/// by the first link's in a local copy, so the gather stays in range, their results are
+/// dropped, and the block's own arrays keep their bits (λ is stored for the real links only).
+/// A half with a single link is left to the scalar lane, which is cheaper there.
+#[target_feature(enable = "avx2")]
+fn run_partial_avx2<P: Particles + ?Sized, const FRESH: bool>(
+    p: &mut P,
+    blk: &mut Block,
+    len: usize,
+    inv_h2: f32,
+) {
+    debug_assert!(len > 0 && len < LANES);
+    let (mut a, mut b) = (blk.a, blk.b);
+    a[len..].fill(blk.a[0]);
+    b[len..].fill(blk.b[0]);
+    for o in (0..len).step_by(8) {
+        let n = (len - o).min(8);
+        if n == 1 {
+            super::solve_lane::<P, FRESH>(p, blk, o, inv_h2);
+            continue;
+        }
+        let (ga, gb) = (gather8!(p, &a, o), gather8!(p, &b, o));
+        let (l, na, nb) = solve8::<FRESH>(blk, o, ga, gb, inv_h2);
+        if !FRESH {
+            let mut lambda = [0f32; LANES];
+            store8(l, &mut lambda, 0);
+            blk.lambda[o..o + n].copy_from_slice(&lambda[..n]);
+        }
+        scatter8_first!(p, &a, o, na, n);
+        scatter8_first!(p, &b, o, nb, n);
     }
 }
