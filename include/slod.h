@@ -991,6 +991,12 @@ typedef struct SlodFeedbackDesc {
    * whole cloth).
    */
   float rim_weight;
+  /**
+   * Flicker control: the fraction of operations the loop lets be undone within 30 steps, in
+   * [0, 1) (default 0.01; 0 turns it off). Undone operations raise the hysteresis (by up to
+   * ×64, decaying with a half-life of 2 s of simulated time) until they are that rare.
+   */
+  float flicker_target;
 } SlodFeedbackDesc;
 
 /**

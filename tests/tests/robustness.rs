@@ -715,10 +715,12 @@ fn random_call(rng: &mut Rng, m: &mut Model, other: &Model, assets: &Assets, ste
             }
             let mut null_desc = false;
             d.rim_weight = rng.range(0.0, 5.0);
+            d.flicker_target = rng.range(0.0, 0.2);
             let bad = if arg_fault {
-                match rng.below(9) {
+                match rng.below(10) {
                     0 => {
-                        d.budget_kind = 3 + rng.below(100) as u32;
+                        // 0..=3 are SlodClothBudget values (3: MaxErrorPx).
+                        d.budget_kind = 4 + rng.below(100) as u32;
                         "desc.budget_kind"
                     }
                     1 => {
@@ -749,6 +751,10 @@ fn random_call(rng: &mut Rng, m: &mut Model, other: &Model, assets: &Assets, ste
                     7 => {
                         d.rim_weight = -1.0;
                         "desc.rim_weight"
+                    }
+                    8 => {
+                        d.flicker_target = 1.5;
+                        "desc.flicker_target"
                     }
                     _ => {
                         null_desc = true;

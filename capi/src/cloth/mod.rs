@@ -19,5 +19,8 @@ pub use clock::{CostModel, StepClock, StepWork};
 pub use contact::ContactSettings;
 pub use controller::{ControllerSettings, StepSample, TimeController};
 pub use error::ClothError;
-pub use feedback::{ClothBudget, FeedbackSettings, PriorityModel, compression_nodes};
+pub use feedback::{
+    ClothBudget, FLICKER_GAIN_MAX, FLICKER_HALF_LIFE_SECONDS, FeedbackSettings, PriorityModel,
+    compression_nodes,
+};
 pub use worn::BoneAttachments;

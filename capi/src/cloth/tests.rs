@@ -171,6 +171,18 @@ fn bad_feedback_input_is_refused_and_changes_nothing() {
             memory_seconds: -1.0,
             ..good
         },
+        FeedbackSettings {
+            flicker_target: Some(0.0),
+            ..good
+        },
+        FeedbackSettings {
+            flicker_target: Some(f32::NAN),
+            ..good
+        },
+        FeedbackSettings {
+            flicker_target: Some(1.0),
+            ..good
+        },
     ];
     for b in bad {
         let err = c.set_feedback(Some(b)).unwrap_err();
@@ -528,4 +540,46 @@ fn bad_cost_model_is_refused() {
         assert!(c.set_step_clock(StepClock::Model(model)).is_err());
         assert_eq!(c.step_clock(), StepClock::Wall);
     }
+}
+
+/// The flicker control's update (`FeedbackSettings::flicker_target`): with a steady fraction of
+/// operations undone it settles exactly where that fraction is the target (growth = decay),
+/// climbs above it (to the cap, ×64), decays to no raise at all without undone operations, and
+/// one undone operation among a cold start's many barely moves it.
+#[test]
+fn flicker_control_balances_at_its_target() {
+    use super::adaptive::flicker_log2;
+    use super::feedback::FLICKER_GAIN_MAX;
+    let (dt, interval, window) = (1.0 / 60.0f32, 5u64, super::UNDO_WINDOW_STEPS);
+    let (interval_s, window_s) = (interval as f32 * dt, window as f32 * dt);
+    let target = 0.01;
+    // Per evaluation `per_eval` operations, a fraction `r` of them undone (in expectation).
+    let settle = |r: f64, per_eval: u64, evaluations: usize| {
+        let window_ops = per_eval * window / interval;
+        let (mut log2, mut owed) = (1.0f32, 0.0f64);
+        for _ in 0..evaluations {
+            owed += r * per_eval as f64;
+            let undone = owed.floor() as u64;
+            owed -= undone as f64;
+            log2 = flicker_log2(log2, undone, window_ops, target, interval_s, window_s);
+        }
+        log2
+    };
+    // At the target the raise holds where it started, up to the sawtooth of whole operations
+    // (one undone every ten evaluations here: +0.42 doublings at once, -0.042 per evaluation).
+    let at = settle(0.01, 10, 2400);
+    assert!((at - 1.0).abs() < 0.45, "{at}");
+    // Five times the target: the cap; a fifth of it: no more than one event's raise (it decays
+    // to none between events); none: no raise.
+    assert_eq!(settle(0.05, 10, 2400), FLICKER_GAIN_MAX.log2());
+    assert!(settle(0.002, 10, 2400) < 0.45);
+    assert_eq!(settle(0.0, 10, 100), 0.0);
+    // One undone among a cold start's 60 per evaluation: under a tenth of a doubling over the
+    // decay; one among five per evaluation: ×1.7 at once, thirty times as much.
+    let cold = flicker_log2(0.0, 1, 360, target, interval_s, window_s);
+    let churn = flicker_log2(0.0, 1, 30, target, interval_s, window_s);
+    assert!(
+        cold < 0.1 && churn > 0.75 && churn > 25.0 * cold,
+        "{cold} {churn}"
+    );
 }

@@ -180,6 +180,10 @@ pub struct SlodFeedbackDesc {
     /// estimate) counts `1 + rim_weight` times (a coarse, strained rim changes the motion of the
     /// whole cloth).
     pub rim_weight: f32,
+    /// Flicker control: the fraction of operations the loop lets be undone within 30 steps, in
+    /// [0, 1) (default 0.01; 0 turns it off). Undone operations raise the hysteresis (by up to
+    /// ×64, decaying with a half-life of 2 s of simulated time) until they are that rare.
+    pub flicker_target: f32,
 }
 
 /// The default cloth: the paper's swinging net (65×65 vertices 2 m wide, 1 kg, horizontal in
@@ -245,6 +249,7 @@ pub extern "C" fn slod_default_feedback_desc() -> SlodFeedbackDesc {
         motion_weight: f.motion_weight,
         view_dependent: u32::from(f.view_dependent),
         rim_weight: f.rim_weight,
+        flicker_target: f.flicker_target.unwrap_or(0.0),
     }
 }
 
@@ -826,6 +831,12 @@ impl SlodFeedbackDesc {
         in_range(self.motion_weight, 0.0, 1.0e6, "desc.motion_weight")?;
         check_u32(self.view_dependent, 0, 1, "desc.view_dependent")?;
         in_range(self.rim_weight, 0.0, 1.0e6, "desc.rim_weight")?;
+        if !(self.flicker_target.is_finite() && (0.0..1.0).contains(&self.flicker_target)) {
+            return Err(FfiError::invalid(
+                "desc.flicker_target",
+                format!("{} is not finite or outside [0, 1)", self.flicker_target),
+            ));
+        }
         let settings = FeedbackSettings {
             interval: self.interval,
             budget,
@@ -838,6 +849,7 @@ impl SlodFeedbackDesc {
             motion_weight: self.motion_weight,
             view_dependent: self.view_dependent == 1,
             rim_weight: self.rim_weight,
+            flicker_target: (self.flicker_target > 0.0).then_some(self.flicker_target),
             ..FeedbackSettings::default()
         };
         settings

@@ -24,7 +24,10 @@ use deviation::{Deviation, Frame};
 use memory::Memory;
 pub(crate) use radii::node_radii;
 pub(crate) use settings::ERROR_BOUND_REFINE;
-pub use settings::{ClothBudget, FeedbackSettings, PriorityModel, compression_nodes};
+pub use settings::{
+    ClothBudget, FLICKER_GAIN_MAX, FLICKER_HALF_LIFE_SECONDS, FeedbackSettings, PriorityModel,
+    compression_nodes,
+};
 
 /// Whether a node's level changed within the undo window (see [`Feedback::measure`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -61,6 +64,13 @@ pub(crate) struct Feedback {
     /// Whether a world budget moves the bound of [`ClothBudget::MaxErrorPx`]: merges then wait
     /// for [`settings::SHARED_BOUND_MERGE`] of the bound, else [`settings::ERROR_BOUND_MERGE`].
     pub(crate) shared_bound: bool,
+    /// Flicker control ([`FeedbackSettings::flicker_target`]): the base-2 logarithm of the
+    /// factor the hysteresis is raised by now (0 to 6), the cloth's undone-operation count when
+    /// it was last updated, and per evaluation within the undo window the step and the
+    /// operations begun before it (oldest first).
+    pub(crate) flicker_log2: f32,
+    pub(crate) undone_seen: u64,
+    pub(crate) flicker_window: std::collections::VecDeque<(u64, u64)>,
     positions: Vec<Vec3>,
     velocities: Vec<Vec3>,
     normals: Vec<Vec3>,
@@ -107,6 +117,9 @@ impl Feedback {
         Feedback {
             evaluator: Evaluator::new(settings.evaluator_settings()),
             shared_bound: false,
+            flicker_log2: 0.0,
+            undone_seen: 0,
+            flicker_window: std::collections::VecDeque::new(),
             settings,
             controller,
             positions: Vec::new(),

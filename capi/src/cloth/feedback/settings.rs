@@ -128,6 +128,41 @@ pub struct FeedbackSettings {
     /// ratio of terms, so it does not depend on the scene's size or units; the perception
     /// experiment's `rim_blind` runs measure it on every scene.
     pub rim_weight: f32,
+    /// Flicker control: the fraction of operations the loop lets be undone within the undo
+    /// window (`UNDO_WINDOW_STEPS`, 30 steps: a refine of a node merged that recently, or the
+    /// reverse), in (0, 1); `None` turns it off. Default 1% (the perception issue's target).
+    /// Each evaluation raises the hysteresis by a factor that integrates the fraction of the
+    /// window's operations undone since the last evaluation and decays with a half-life of
+    /// [`FLICKER_HALF_LIFE_SECONDS`] (at most [`FLICKER_GAIN_MAX`]); in the steady state the two
+    /// balance where the undone fraction is this target, whatever the scene. Applies to node
+    /// and compression budgets (a time budget keeps a minimum dwell of the whole undo window,
+    /// an error bound a hysteresis that is a fraction of its bound).
+    ///
+    /// Why: the hysteresis is relative to the mean priority, which says nothing about how much
+    /// the priorities *fluctuate*. On cloth whose salience moves with every gust (a flag, a
+    /// curtain on a moving rail) a fifth to a quarter of the operations were undone within
+    /// half a second: detail chasing noise, paid for in transitions and visible as flicker.
+    /// An undone operation is direct evidence that the threshold is below the noise, so the
+    /// loop raises it where that happens, and in proportion to how much of its work is undone:
+    /// a cut reshaping from a cold start with 60 operations per evaluation barely reacts to
+    /// one undone, a flag swapping five nodes per evaluation and undoing one or two reacts
+    /// within a few evaluations. Where nothing is undone the loop is unchanged, bit for bit.
+    ///
+    /// Measured (`slod-demo perception`: 30% of the nodes, 200 steps; undone within 30 steps
+    /// over the whole run / over 30-step horizons; on-screen p99; cost at equal error as a
+    /// fraction of the uniform cut's), without → with: flag undone 19.9 / 27.5% → 3.0 / 8.1%,
+    /// p99 (horizons) 53.2 → 49.0 px, cost 1.54 → 1.25; curtain 9.3 / 19.4% → 3.6 / 4.5%, p99
+    /// whole run 36.6 → 33.9 px but horizons 36.0 → 38.5 (worse), cost 1.45 → 1.36. The held
+    /// sheets and the moving camera: the same bits where nothing was undone (net, close-up,
+    /// off-screen, dolly), p99 within 0.02 px where a few operations were (irregular mesh 0.9%,
+    /// 129² net 0.2%). The paper's motion-only ranking, which churns on every scene, gained
+    /// most (net RMS 10.6 → 5.3 px, off-screen 99 → 32). The fraction matters: raising by a
+    /// fixed factor per undone operation instead (×2, same half-life) stopped the flag's
+    /// churn as well but froze the close-up's cold-start reshaping after four undone of 705
+    /// operations in the camera-blind and strain-only ablations (p99 12.9 → 18.3 and 12.7 →
+    /// 19.8 px). What is left undone on the chaotic scenes is mostly the first few events,
+    /// before the raise has evidence: a 200-step run does about a hundred operations.
+    pub flicker_target: Option<f32>,
     /// Split the salience evaluation over the rayon pool when there are enough nodes.
     pub parallel: bool,
     /// Controller settings for [`ClothBudget::TargetStepMs`].
@@ -151,6 +186,7 @@ impl Default for FeedbackSettings {
             motion_weight: 1.0,
             view_dependent: true,
             rim_weight: 3.0,
+            flicker_target: Some(0.01),
             parallel: false,
             controller: ControllerSettings::default(),
         }
@@ -212,6 +248,11 @@ impl FeedbackSettings {
         if self.max_ops == 0 {
             return bad("max_ops", "must be >= 1");
         }
+        if let Some(t) = self.flicker_target
+            && !(t.is_finite() && t > 0.0 && t < 1.0)
+        {
+            return bad("flicker_target", "must be in (0, 1), or None");
+        }
         match self.budget {
             ClothBudget::Nodes(0) => return bad("budget", "node budget must be >= 1"),
             ClothBudget::Compression(f) if !(f.is_finite() && f > 0.0 && f <= 1.0) => {
@@ -269,6 +310,16 @@ pub(crate) const ERROR_BOUND_MERGE: f32 = ERROR_BOUND_REFINE;
 pub(crate) const SHARED_BOUND_MERGE: f32 = 0.125;
 /// [`ClothBudget::MaxErrorPx`]: the evaluator's hysteresis as a fraction of the bound.
 pub(crate) const ERROR_BOUND_HYSTERESIS: f32 = 0.25;
+
+/// Half-life, in seconds of simulated time, with which the raise of the hysteresis by
+/// [`FeedbackSettings::flicker_target`] decays: a few swings of a cloth, so a burst of flicker
+/// is remembered through the next gusts, and a cut that calmed down is free to move at full
+/// sensitivity again after some seconds.
+pub const FLICKER_HALF_LIFE_SECONDS: f32 = 2.0;
+/// Largest factor [`FeedbackSettings::flicker_target`] may raise the hysteresis by: six
+/// doublings, enough to stop the chaotic scenes' churn, and short of freezing the cut for good
+/// (the priorities of one cloth span a few orders of magnitude).
+pub const FLICKER_GAIN_MAX: f32 = 64.0;
 
 /// The node count a compression (fraction of the full count) allows: rounded, at least 1 (what
 /// [`ClothBudget::Compression`] means).
