@@ -686,9 +686,12 @@ impl SmoothTable {
             for e in seg.first as usize..seg.end as usize {
                 let end = self.mls_end[e] as usize;
                 let terms = &self.mls_terms[start..end];
-                out[self.mls_vertex[e] as usize] = terms.iter().fold(Vec3::ZERO, |acc, &(q, w)| {
-                    acc + pos[q as usize].truncate() * w
-                });
+                // In four lanes (the particle's inverse mass rides along in `w` and is
+                // dropped): the same products and sums per coordinate as three scalar lanes.
+                out[self.mls_vertex[e] as usize] = terms
+                    .iter()
+                    .fold(glam::Vec4::ZERO, |acc, &(q, w)| acc + pos[q as usize] * w)
+                    .truncate();
                 start = end;
             }
         }
