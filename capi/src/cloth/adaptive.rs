@@ -85,17 +85,22 @@ pub struct AdaptiveCloth {
 }
 
 /// The least time a node stays merged before the loop refines it again (unless it touches a
-/// collider), and a refined parent before it is merged again: a quarter of a second. The
-/// hysteresis filters small priority gains, not churn: on the chaotic scenes, whose salience
-/// moves with every gust, a fifth of the operations were undone within half a second.
-/// Measured (perception at 30% of the nodes, undone within 30 steps whole run / short horizon;
-/// on-screen p99): flag 21.3 / 34.5% → 17.1 / 24.7%, p99 52.7 → 52.0 px (short horizon);
-/// curtain 13.7 / 23.8% → 8.7 / 19.1%, p99 39.8 → 33.3 px (whole run), 37.4 → 35.7 (short);
-/// irregular mesh 6.0 → 0.9%, 13.6 → 13.0 px; the others unchanged (nothing to undo). Engine
-/// scenes, on-screen RMS: cape 11.5 → 10.4 px, flag 17.4 → 17.1, drape 14.8 → 15.4 (worse),
-/// sliding box 33.3 → 33.8. A dwell of half a second (the whole undo window) left nothing
-/// undone but the drape at 15.8 px.
-pub(crate) const DWELL_SECONDS: f32 = 0.25;
+/// collider), and a refined parent before it is merged again: half a second, the undo window at
+/// 60 Hz. The hysteresis filters small priority gains, not churn: on the chaotic scenes, whose
+/// salience moves with every gust, a fifth of the operations were undone within half a second.
+///
+/// History, measured (perception at 30% of the nodes, undone within 30 steps whole run / short
+/// horizon; on-screen p99): with no dwell, flag 21.3 / 34.5%, curtain 13.7 / 23.8%, irregular
+/// mesh 6.0%; a quarter second took them to 17.1 / 24.7%, 8.7 / 19.1% and 0.9%, while half a
+/// second cost the engine drape 14.8 → 15.8 px RMS and was not taken. With the flicker control
+/// (`FeedbackSettings::flicker_target`) added, a quarter second left flag 3.1 / 8.1%, curtain
+/// 2.7 / 4.5%, irregular 0.9%, 129² net 0.2%; half a second leaves **nothing** undone on any
+/// perception scene (flag p99 whole run 92.1 → 71.5 px, horizons 48.9 → 54.5, worse; curtain
+/// 35.2 → 32.1 and 38.5 → 38.0; irregular mesh 13.02 → 13.31, worse; 129² net 12.95 → 12.92;
+/// the rest unchanged, nothing was undone there) and is better on every engine scene
+/// (on-screen RMS, undone: drape 15.28 → 14.81 px, 6.3 → 2.3%; flag 16.65 → 15.10, 1.9 → 0%;
+/// cape 11.40 → 10.61, 1.1 → 0.4%; sliding box 34.95 → 33.41, 6.8 → 2.5%).
+pub(crate) const DWELL_SECONDS: f32 = 0.5;
 
 const OP_REFINE: u8 = 1;
 const OP_COARSE: u8 = 2;

@@ -333,9 +333,9 @@ fn no_operation_is_undone_within_the_dwell() {
         ..FeedbackSettings::default()
     }))
     .unwrap();
-    // A quarter of a second at the net's 60 Hz (checked against the constant, so that a change
-    // of it is a change of this test).
-    let dwell = 15;
+    // Half a second at the net's 60 Hz (checked against the constant, so that a change of it is
+    // a change of this test).
+    let dwell = 30;
     assert_eq!(
         (super::adaptive::DWELL_SECONDS / c.body().settings().solver.dt).round() as u64,
         dwell

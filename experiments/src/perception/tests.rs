@@ -434,14 +434,12 @@ fn error_bound_ends_at_one_cut_from_either_side() {
     assert!(fine.abs_diff(coarse) <= all / 10, "{summary}");
 }
 
-/// Flicker control (`FeedbackSettings::flicker_target`): on the curtain on its moving rail,
-/// whose salience moves with the rail's jerks, raising the hysteresis after each undone
-/// operation cuts the operations undone within the undo window; on the net, where nothing is
-/// undone, it changes nothing at all (same operations, same particles, bit for bit). Measured
-/// at the small scale: curtain 7 of 23 operations undone without, 3 of 15 with (at full scale
-/// 20 of 216 and 2 of 132, the flag 51 of 256 and 3 of 103); net 0 of 14 either way.
+/// Flicker control (`FeedbackSettings::flicker_target`) on a cloth where nothing is undone
+/// (the net): it changes nothing at all — same operations, same particles, bit for bit. (Where
+/// it acts, under contact: `engine::tests::flicker_control_cuts_undone_operations_under_contact`;
+/// on the perception scenes the half-second dwell leaves nothing for it to do.)
 #[test]
-fn flicker_control_cuts_undone_operations_and_leaves_calm_cloth_alone() {
+fn flicker_control_leaves_calm_cloth_alone() {
     use slod::cloth::FeedbackSettings;
     let run = |scene: &Scene, target: Option<f32>| {
         let nodes = compression_nodes(0.3, scene.hierarchy.vertex_count());
@@ -466,16 +464,6 @@ fn flicker_control_cuts_undone_operations_and_leaves_calm_cloth_alone() {
             .collect();
         (st.undone_ops, st.refines + st.coarses, bits)
     };
-    let curtain = scenes::curtain(SceneScale::Small).unwrap();
-    let (undone_off, ops_off, _) = run(&curtain, None);
-    let (undone_on, ops_on, _) = run(&curtain, Some(0.01));
-    let summary = format!("curtain: off {undone_off} of {ops_off}, on {undone_on} of {ops_on}");
-    assert!(undone_off >= 4, "the scene flickers without it: {summary}");
-    assert!(2 * undone_on <= undone_off, "{summary}");
-    assert!(
-        (undone_on as f64 / ops_on as f64) < 0.8 * (undone_off as f64 / ops_off as f64),
-        "{summary}"
-    );
     let net = scenes::net(SceneScale::Small).unwrap();
     let (undone_off, ops_off, bits_off) = run(&net, None);
     let (undone_on, ops_on, bits_on) = run(&net, Some(0.01));

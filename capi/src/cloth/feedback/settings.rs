@@ -148,20 +148,19 @@ pub struct FeedbackSettings {
     /// one undone, a flag swapping five nodes per evaluation and undoing one or two reacts
     /// within a few evaluations. Where nothing is undone the loop is unchanged, bit for bit.
     ///
-    /// Measured (`slod-demo perception`: 30% of the nodes, 200 steps; undone within 30 steps
-    /// over the whole run / over 30-step horizons; on-screen p99; cost at equal error as a
-    /// fraction of the uniform cut's), without → with: flag undone 19.9 / 27.5% → 3.0 / 8.1%,
-    /// p99 (horizons) 53.2 → 49.0 px, cost 1.54 → 1.25; curtain 9.3 / 19.4% → 3.6 / 4.5%, p99
-    /// whole run 36.6 → 33.9 px but horizons 36.0 → 38.5 (worse), cost 1.45 → 1.36. The held
-    /// sheets and the moving camera: the same bits where nothing was undone (net, close-up,
-    /// off-screen, dolly), p99 within 0.02 px where a few operations were (irregular mesh 0.9%,
-    /// 129² net 0.2%). The paper's motion-only ranking, which churns on every scene, gained
-    /// most (net RMS 10.6 → 5.3 px, off-screen 99 → 32). The fraction matters: raising by a
-    /// fixed factor per undone operation instead (×2, same half-life) stopped the flag's
-    /// churn as well but froze the close-up's cold-start reshaping after four undone of 705
+    /// Measured, without → with (`slod-demo engine` and `perception`, 30% of the nodes; undone
+    /// within 30 steps; on-screen RMS). Beside the half-second dwell (`DWELL_SECONDS`) it acts
+    /// where the dwell cannot: contact keeps a node that touches a collider fine whatever it
+    /// was a moment ago — drape over a sphere 8.7 → 2.3% undone, 15.07 → 14.81 px; cloth under a
+    /// sliding box 14.4 → 2.5%, 33.65 → 33.41 px; the engine flag and cape nothing undone
+    /// either way. On the perception scenes that dwell leaves nothing undone, so it changes
+    /// nothing there. With the quarter-second dwell used before, it took the gusty flag from
+    /// 19.9 / 27.5% (whole run / 30-step horizons) to 3.0 / 8.1% and its cost at equal error
+    /// from 1.54 to 1.25 of a uniform cut's, the curtain from 9.3 / 19.4% to 3.6 / 4.5% (1.45 →
+    /// 1.36). The fraction matters: raising by a fixed factor per undone operation instead (×2,
+    /// same half-life) froze the close-up's cold-start reshaping after four undone of 705
     /// operations in the camera-blind and strain-only ablations (p99 12.9 → 18.3 and 12.7 →
-    /// 19.8 px). What is left undone on the chaotic scenes is mostly the first few events,
-    /// before the raise has evidence: a 200-step run does about a hundred operations.
+    /// 19.8 px).
     pub flicker_target: Option<f32>,
     /// Split the salience evaluation over the rayon pool when there are enough nodes.
     pub parallel: bool,
