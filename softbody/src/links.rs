@@ -67,6 +67,12 @@ impl Batch {
         self.len += 1;
         i as u32
     }
+    /// Empties the batch, keeping its storage.
+    fn clear(&mut self) {
+        self.blocks.clear();
+        self.ids.clear();
+        self.len = 0;
+    }
     /// Swap-removes entry `i`; returns the id of the link moved into `i`, if any.
     fn swap_remove(&mut self, i: usize) -> Option<LinkId> {
         let last = self.len - 1;
@@ -353,8 +359,11 @@ impl LinkStore {
             .collect();
         links.sort_unstable_by_key(|&(lo, hi, l)| (lo, hi, l.id.raw()));
         let particles = self.colours.len();
-        self.batches.clear();
-        self.overflow = Batch::default();
+        // Emptied, not dropped: the same links go back in, so the blocks' storage is reused.
+        for batch in &mut self.batches {
+            batch.clear();
+        }
+        self.overflow.clear();
         self.colours.clear();
         self.colours.resize(particles, 0);
         for list in &mut self.incident {
@@ -367,7 +376,11 @@ impl LinkStore {
         self.len = 0;
         for &(_, _, l) in &links {
             let (a, b) = (new_of_old[l.a.index()], new_of_old[l.b.index()]);
-            self.insert(l.id, a, b, l.rest, l.compliance, l.weight);
+            // Not logged: the log is cleared below (every index changed).
+            self.insert_as::<false>(l.id, a, b, l.rest, l.compliance, l.weight);
+        }
+        while self.batches.last().is_some_and(|b| b.len == 0) {
+            self.batches.pop();
         }
         // Free ids, the smallest handed out first (as from a fresh store).
         self.free.clear();
@@ -383,6 +396,19 @@ impl LinkStore {
 
     /// Colours and stores a link under a free id.
     fn insert(&mut self, id: LinkId, a: u32, b: u32, rest: f32, compliance: f32, weight: f32) {
+        self.insert_as::<true>(id, a, b, rest, compliance, weight);
+    }
+
+    /// [`LinkStore::insert`], logging the change to both ends' incident lists when `LOG`.
+    fn insert_as<const LOG: bool>(
+        &mut self,
+        id: LinkId,
+        a: u32,
+        b: u32,
+        rest: f32,
+        compliance: f32,
+        weight: f32,
+    ) {
         self.generation += 1;
         let used = self.colours[a as usize] | self.colours[b as usize];
         let colour = (!used).trailing_zeros();
@@ -409,8 +435,10 @@ impl LinkStore {
         self.slots[id.index()] = slot;
         self.incident[a as usize].push((id, b));
         self.incident[b as usize].push((id, a));
-        self.touch(a);
-        self.touch(b);
+        if LOG {
+            self.touch(a);
+            self.touch(b);
+        }
         self.len += 1;
     }
 
