@@ -126,7 +126,6 @@ impl Group {
     }
 
     /// One sequential sweep over this group's links alone.
-    #[cfg(test)]
     pub(crate) fn solve<P: Particles + ?Sized>(&mut self, p: &mut P, inv_h2: f32) {
         let mut sw = self.sweep_start(p);
         for k in 0..self.targets.len() {
@@ -271,11 +270,7 @@ impl GroupStore {
                 (Some(g1), Some(g2), Some(g3)) => solve_four([g0, g1, g2, g3], p, inv_h2),
                 (g1, g2, _) => {
                     for g in [Some(g0), g1, g2].into_iter().flatten() {
-                        let mut sw = g.sweep_start(p);
-                        for k in 0..g.targets.len() {
-                            g.solve_link(k, &mut sw, p, inv_h2);
-                        }
-                        g.sweep_end(&sw, p);
+                        g.solve(p, inv_h2);
                     }
                 }
             }

@@ -122,32 +122,6 @@ fn recent_within(last_op: &[(u64, u8)], now: u64, node: NodeId, window: u64) -> 
     }
 }
 
-/// One evaluation's update of the flicker control's raise of the hysteresis (its base-2
-/// logarithm, 0 to `log2(FLICKER_GAIN_MAX)`; see [`super::FeedbackSettings::flicker_target`]):
-/// `undone` operations undone since the last evaluation, `window_ops` begun within the undo
-/// window before this evaluation, `target` the undone fraction aimed at, `interval_s` and
-/// `window_s` the evaluation interval and the undo window in seconds.
-///
-/// The raise decays by `interval_s / FLICKER_HALF_LIFE_SECONDS` doublings per evaluation and
-/// grows by `undone / (window_ops · f₀)` with `f₀ = target · half-life / window_s`: when a
-/// fraction `r` of the operations is undone steadily, the growth per evaluation is
-/// `r · interval_s / (window_s · f₀)` (the window holds `window_s / interval_s` evaluations'
-/// operations), which equals the decay exactly at `r = target`. Above it the raise climbs, below
-/// it decays: the loop settles where its operations are undone at the target rate or less.
-pub(super) fn flicker_log2(
-    log2: f32,
-    undone: u64,
-    window_ops: u64,
-    target: f32,
-    interval_s: f32,
-    window_s: f32,
-) -> f32 {
-    let half_life = super::feedback::FLICKER_HALF_LIFE_SECONDS;
-    let f0 = target * half_life / window_s;
-    let raise = undone as f32 / (window_ops.max(1) as f32 * f0);
-    (log2 - interval_s / half_life + raise).clamp(0.0, super::feedback::FLICKER_GAIN_MAX.log2())
-}
-
 impl AdaptiveCloth {
     /// A cloth over `hierarchy` starting from `cut` (which must be a valid cut of it), with every
     /// node at rest. `rest_normal` orients the surface for the salience stage (any consistent
@@ -480,35 +454,12 @@ impl AdaptiveCloth {
                 .sum::<f64>()
                 / active.len().max(1) as f64;
             let mut e = f.settings.evaluator_settings();
-            // Flicker control (`FeedbackSettings::flicker_target`). Not under a time budget,
-            // whose undone operations follow its budget's moves, not noise (it keeps a dwell of
-            // the whole undo window instead).
-            let flicker = match f.settings.flicker_target {
-                Some(target) if f.controller.is_none() => {
-                    let dt = self.body.settings().solver.dt;
-                    let ops = self.stats.refines + self.stats.coarses;
-                    let now = self.stats.steps;
-                    f.flicker_window
-                        .retain(|&(step, _)| now - step <= UNDO_WINDOW_STEPS);
-                    let window_ops = f
-                        .flicker_window
-                        .front()
-                        .map_or(0, |&(_, before)| ops - before);
-                    f.flicker_window.push_back((now, ops));
-                    let undone = self.stats.undone_ops - f.undone_seen;
-                    f.undone_seen = self.stats.undone_ops;
-                    f.flicker_log2 = flicker_log2(
-                        f.flicker_log2,
-                        undone,
-                        window_ops,
-                        target,
-                        f.settings.interval as f32 * dt,
-                        UNDO_WINDOW_STEPS as f32 * dt,
-                    );
-                    f.flicker_log2.exp2()
-                }
-                _ => 1.0,
-            };
+            let flicker = f.flicker_gain(
+                self.stats.refines + self.stats.coarses,
+                self.stats.undone_ops,
+                self.stats.steps,
+                self.body.settings().solver.dt,
+            );
             e.hysteresis *= mean as f32 * flicker;
             // A time budget below the cut may merge as fast as the locks allow (one family
             // per neighbourhood), on top of `max_ops`: the controller fits its cost per node

@@ -548,8 +548,7 @@ fn bad_cost_model_is_refused() {
 /// one undone operation among a cold start's many barely moves it.
 #[test]
 fn flicker_control_balances_at_its_target() {
-    use super::adaptive::flicker_log2;
-    use super::feedback::FLICKER_GAIN_MAX;
+    use super::feedback::{FLICKER_GAIN_MAX, flicker_log2};
     let (dt, interval, window) = (1.0 / 60.0f32, 5u64, super::UNDO_WINDOW_STEPS);
     let (interval_s, window_s) = (interval as f32 * dt, window as f32 * dt);
     let target = 0.01;

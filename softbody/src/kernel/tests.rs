@@ -66,6 +66,13 @@ fn bits(p: &[Vec4]) -> Vec<[u32; 4]> {
     p.iter().map(|v| v.to_array().map(f32::to_bits)).collect()
 }
 
+/// Every lane's multiplier, as bits (spare lanes too).
+fn lambda_bits(b: &[Block]) -> Vec<u32> {
+    b.iter()
+        .flat_map(|blk| blk.lambda.map(f32::to_bits))
+        .collect()
+}
+
 /// Every supported path gives exactly the scalar path's positions and multipliers, over
 /// several sweeps, for batch lengths with and without a partial last block.
 #[test]
@@ -91,12 +98,11 @@ fn every_path_matches_scalar_bitwise() {
                 solve_batch(path, p.as_mut_slice(), &mut b, len, 3600.0, false);
             }
             assert_eq!(bits(&p), bits(&p_ref), "{path:?}, {len} links");
-            let lam = |b: &[Block]| -> Vec<u32> {
-                b.iter()
-                    .flat_map(|blk| blk.lambda.map(f32::to_bits))
-                    .collect()
-            };
-            assert_eq!(lam(&b), lam(&b_ref), "{path:?}, {len} links");
+            assert_eq!(
+                lambda_bits(&b),
+                lambda_bits(&b_ref),
+                "{path:?}, {len} links"
+            );
         }
         assert_ne!(bits(&p_ref), bits(&p0), "the sweep moved something");
     }
@@ -242,12 +248,7 @@ fn partial_blocks_match_scalar_and_leave_spare_lanes_alone() {
                     }
                     let what = format!("{path:?}, {len} links, fresh {fresh}");
                     assert_eq!(bits(&p), bits(&p_ref), "{what}");
-                    let lam = |b: &[Block]| -> Vec<u32> {
-                        b.iter()
-                            .flat_map(|blk| blk.lambda.map(f32::to_bits))
-                            .collect()
-                    };
-                    assert_eq!(lam(&b), lam(&b_ref), "{what}");
+                    assert_eq!(lambda_bits(&b), lambda_bits(&b_ref), "{what}");
                     assert_eq!(spare(&b), spare(&b0), "{what}");
                 }
                 // (The test batch's first link has weight 0: one link alone moves nothing.)

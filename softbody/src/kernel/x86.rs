@@ -276,27 +276,8 @@ macro_rules! gather8 {
     }};
 }
 
-/// Writes `x, y, z, w` registers back to the particles of links `o..o + 8`.
-macro_rules! scatter8 {
-    ($p:expr, $idx:expr, $o:expr, $xyzw:expr) => {{
-        let (p, idx, o): (&mut P, &[u32; LANES], usize) = ($p, $idx, $o);
-        let r = transpose!(
-            $xyzw,
-            _mm256_unpacklo_ps,
-            _mm256_unpackhi_ps,
-            _mm256_shuffle_ps
-        );
-        for j in 0..4 {
-            p.set(idx[o + j] as usize, _mm256_castps256_ps128(r[j]).into());
-            p.set(
-                idx[o + 4 + j] as usize,
-                _mm256_extractf128_ps::<1>(r[j]).into(),
-            );
-        }
-    }};
-}
-
-/// [`scatter8!`] for the first `n` of links `o..o + 8` only.
+/// Writes `x, y, z, w` registers back to the particles of the first `n` of links `o..o + 8`
+/// (the lanes past them are not links: a batch's last, partial block).
 macro_rules! scatter8_first {
     ($p:expr, $idx:expr, $o:expr, $xyzw:expr, $n:expr) => {{
         let (p, idx, o, n): (&mut P, &[u32; LANES], usize, usize) = ($p, $idx, $o, $n);
@@ -318,6 +299,14 @@ macro_rules! scatter8_first {
             }
         }
     }};
+}
+
+/// Writes `x, y, z, w` registers back to the particles of links `o..o + 8` (all eight: the
+/// constant count folds the lane checks away).
+macro_rules! scatter8 {
+    ($p:expr, $idx:expr, $o:expr, $xyzw:expr) => {
+        scatter8_first!($p, $idx, $o, $xyzw, 8)
+    };
 }
 
 /// New λ and new `x, y, z, w` of both ends, for links `o..o + 8` of a block.

@@ -512,12 +512,8 @@ impl SmoothTable {
             }
         }
         // Segments of particles that are gone.
-        let old_n = self.mls_seg.len();
-        for seg in self.mls_seg.drain(n.min(old_n)..) {
-            if seg.end > seg.first {
-                self.live_entries -= (seg.end - seg.first) as usize;
-                self.live_terms -= (self.mls_end[seg.end as usize - 1] - seg.terms) as usize;
-            }
+        for p in n..self.mls_seg.len() {
+            self.forget_segment(p);
         }
         self.mls_seg.resize(n, Segment::default());
         self.mls_node.resize(n, u32::MAX);
@@ -578,14 +574,19 @@ impl SmoothTable {
         }
         let redo = std::mem::take(&mut self.redo);
         for &p in &redo {
-            let old = self.mls_seg[p as usize];
-            if old.end > old.first {
-                self.live_entries -= (old.end - old.first) as usize;
-                self.live_terms -= (self.mls_end[old.end as usize - 1] - old.terms) as usize;
-            }
+            self.forget_segment(p as usize);
             self.mls_segment(body, p as usize);
         }
         self.redo = redo;
+    }
+
+    /// Takes particle `p`'s segment out of the live counts (its entries become garbage).
+    fn forget_segment(&mut self, p: usize) {
+        let seg = self.mls_seg[p];
+        if seg.end > seg.first {
+            self.live_entries -= (seg.end - seg.first) as usize;
+            self.live_terms -= (self.mls_end[seg.end as usize - 1] - seg.terms) as usize;
+        }
     }
 
     /// Stale entries the [`ReconstructionMode::Mls`] table holds (left by updates in place).
@@ -844,19 +845,14 @@ fn fit_mls(
     let mut w_sum = 0.0;
     for (b, &(_, w)) in bases.iter().zip(near.iter()) {
         let w = f64::from(w);
-        // The lower triangle (the matrix is symmetric; mirrored below).
+        // The lower triangle only: the matrix is symmetric and the Cholesky factorisation
+        // reads no other entry.
         for (i, row) in a.iter_mut().enumerate() {
             for (j, x) in row[..=i].iter_mut().enumerate() {
                 *x += w * b[i] * b[j];
             }
         }
         w_sum += w;
-    }
-    for i in 1..6 {
-        let (upper, lower) = a.split_at_mut(i);
-        for (j, row) in upper.iter_mut().enumerate() {
-            row[i] = lower[0][j];
-        }
     }
     for (i, row) in a.iter_mut().enumerate().skip(1) {
         let ridge = if i < 3 {
@@ -918,9 +914,9 @@ const MLS_RIDGE_LINEAR: f32 = 1e-8;
 /// the mixed-level support, 1e-2 gives 0.00207/0.00361/0.00833).
 const MLS_RIDGE_QUADRATIC: f32 = 1e-2;
 
-/// Cholesky factor of a symmetric positive definite 6×6 matrix (lower triangle; pivots are
-/// floored, the ridge keeps them positive), with the reciprocals of its diagonal so that a
-/// solve multiplies instead of dividing.
+/// Cholesky factor of a symmetric positive definite 6×6 matrix, given by its lower triangle
+/// (the upper one is not read; pivots are floored, the ridge keeps them positive), with the
+/// reciprocals of its diagonal so that a solve multiplies instead of dividing.
 struct Cholesky6 {
     l: [[f64; 6]; 6],
     inv_diag: [f64; 6],

@@ -17,6 +17,7 @@ use salience::{BswdfJob, Neighbours, Nodes, ObjectMotion, View};
 use softbody::TreeCutSoftBody;
 use treecut::{Evaluator, NodeId};
 
+use super::adaptive::UNDO_WINDOW_STEPS;
 use super::controller::TimeController;
 use super::error::ClothError;
 use deformation::Strain;
@@ -68,9 +69,9 @@ pub(crate) struct Feedback {
     /// factor the hysteresis is raised by now (0 to 6), the cloth's undone-operation count when
     /// it was last updated, and per evaluation within the undo window the step and the
     /// operations begun before it (oldest first).
-    pub(crate) flicker_log2: f32,
+    flicker_log2: f32,
     pub(crate) undone_seen: u64,
-    pub(crate) flicker_window: std::collections::VecDeque<(u64, u64)>,
+    flicker_window: std::collections::VecDeque<(u64, u64)>,
     positions: Vec<Vec3>,
     velocities: Vec<Vec3>,
     normals: Vec<Vec3>,
@@ -138,6 +139,38 @@ impl Feedback {
             measurements: 0,
             rim: Vec::new(),
         }
+    }
+
+    /// The factor the evaluator's hysteresis is raised by at this evaluation (flicker control,
+    /// [`FeedbackSettings::flicker_target`]; 1 without it, and under a time budget, whose
+    /// undone operations follow its budget's moves, not noise: it keeps a dwell of the whole
+    /// undo window instead). `ops` and `undone` are the cloth's operation and undone-operation
+    /// counts so far, `now` its step count, `dt` its step.
+    pub(crate) fn flicker_gain(&mut self, ops: u64, undone: u64, now: u64, dt: f32) -> f32 {
+        let Some(target) = self.settings.flicker_target else {
+            return 1.0;
+        };
+        if self.controller.is_some() {
+            return 1.0;
+        }
+        self.flicker_window
+            .retain(|&(step, _)| now - step <= UNDO_WINDOW_STEPS);
+        let window_ops = self
+            .flicker_window
+            .front()
+            .map_or(0, |&(_, before)| ops - before);
+        self.flicker_window.push_back((now, ops));
+        let new_undone = undone - self.undone_seen;
+        self.undone_seen = undone;
+        self.flicker_log2 = flicker_log2(
+            self.flicker_log2,
+            new_undone,
+            window_ops,
+            target,
+            self.settings.interval as f32 * dt,
+            UNDO_WINDOW_STEPS as f32 * dt,
+        );
+        self.flicker_log2.exp2()
     }
 
     /// The node budget now.
@@ -533,4 +566,30 @@ fn canonical_view(positions: &[Vec3], normals: &[Vec3], centre: Vec3, frame: &Vi
     let distance = extent / (0.5 * FOV_Y).tan() + extent;
     let up = if n.y.abs() < 0.9 { Vec3::Y } else { Vec3::Z };
     View::look_at(centre + n * distance, centre, up, FOV_Y, 1920, 1080).unwrap_or(*frame)
+}
+
+/// One evaluation's update of the flicker control's raise of the hysteresis (its base-2
+/// logarithm, 0 to `log2(FLICKER_GAIN_MAX)`; see [`FeedbackSettings::flicker_target`]):
+/// `undone` operations undone since the last evaluation, `window_ops` begun within the undo
+/// window before this evaluation, `target` the undone fraction aimed at, `interval_s` and
+/// `window_s` the evaluation interval and the undo window in seconds.
+///
+/// The raise decays by `interval_s / FLICKER_HALF_LIFE_SECONDS` doublings per evaluation and
+/// grows by `undone / (window_ops · f₀)` with `f₀ = target · half-life / window_s`: when a
+/// fraction `r` of the operations is undone steadily, the growth per evaluation is
+/// `r · interval_s / (window_s · f₀)` (the window holds `window_s / interval_s` evaluations'
+/// operations), which equals the decay exactly at `r = target`. Above it the raise climbs, below
+/// it decays: the loop settles where its operations are undone at the target rate or less.
+pub(crate) fn flicker_log2(
+    log2: f32,
+    undone: u64,
+    window_ops: u64,
+    target: f32,
+    interval_s: f32,
+    window_s: f32,
+) -> f32 {
+    let half_life = FLICKER_HALF_LIFE_SECONDS;
+    let f0 = target * half_life / window_s;
+    let raise = undone as f32 / (window_ops.max(1) as f32 * f0);
+    (log2 - interval_s / half_life + raise).clamp(0.0, FLICKER_GAIN_MAX.log2())
 }
