@@ -709,7 +709,7 @@ impl SoftBody {
         let threads = self.threads();
         // One sweep per substep (the default): every link's multiplier is 0 when it is solved
         // and never read again, so the kernels neither load nor store them and nothing resets
-        // them (`kernel::solve_batch`); the same bits as resetting and sweeping.
+        // them (`kernel::solve_batch_unchecked`); the same bits as resetting and sweeping.
         let fresh = s.iterations == 1;
         if colliding {
             self.begin_contact_step();
@@ -805,7 +805,7 @@ impl SoftBody {
             ..
         } = self;
         let path = *kernel;
-        let links = links.runs(s.parallel_min_links as usize, threads);
+        let links = links.runs(s.parallel_min_links as usize, threads, positions.len());
         // Run numbers: link runs `0..r` (solve), `r..2r` (reset their multipliers), particle
         // ranges `2r..2r + chunks` (predict), `2r + chunks..2r + 2chunks` (velocities). The
         // reset and the prediction are adjacent, so one phase does both when it may have that

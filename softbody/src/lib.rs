@@ -115,9 +115,11 @@
 //! every mode), and
 //! [`reconstruction_error`] compares it with a full-resolution reference.
 // The crate's `unsafe` is the call into the run-time selected AVX2/AVX-512 kernels, in
-// `kernel/x86.rs`, the `Send`/`Sync` of the particle view that lets threads solve disjoint links
-// of one colour batch (`kernel/shared.rs`), and its creation in `links.rs` (each argued where it
-// is); everything else is safe code.
+// `kernel/x86.rs`, and their particle accesses without a bounds check each (the link store
+// checks a batch's indices once per change of its links: `links.rs`, `kernel/mod.rs`); the
+// `Send`/`Sync` of the particle view that lets threads solve disjoint links of one colour batch
+// (`kernel/shared.rs`), and its creation in `body.rs` (each argued where it is); everything else
+// is safe code.
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 

@@ -141,6 +141,9 @@ pub(crate) struct Runs<'a> {
     plan: Vec<(usize, usize)>,
     /// Runs a split batch has (the most runs one phase of a sweep publishes).
     parts: usize,
+    /// The particle count every link's ends were checked below when the runs were made (the
+    /// store cannot change while they borrow it).
+    count: usize,
     overflow: Mutex<&'a mut Batch>,
 }
 
@@ -155,7 +158,9 @@ impl Runs<'_> {
         self.parts
     }
 
-    /// Solves run `run` against `p`.
+    /// Solves run `run` against `p` (which must hold the particle count the runs were made
+    /// for: panics otherwise).
+    #[allow(unsafe_code)]
     pub(crate) fn solve(
         &self,
         run: usize,
@@ -164,11 +169,14 @@ impl Runs<'_> {
         inv_h2: f32,
         fresh: bool,
     ) {
+        assert_eq!(p.count(), self.count, "runs solved against other particles");
         let mut guard = self.runs[run]
             .lock()
             .unwrap_or_else(PoisonError::into_inner);
         let (blocks, len) = &mut *guard;
-        kernel::solve_batch(path, p, blocks, *len, inv_h2, fresh);
+        // SAFETY: `LinkStore::runs` checked every link's ends below `self.count`, which is
+        // `p.count()` (asserted above), and the store cannot change while the runs borrow it.
+        unsafe { kernel::solve_batch_unchecked(path, p, blocks, *len, inv_h2, fresh) };
     }
 
     /// Resets the multipliers of run `run` (start of a substep).
@@ -258,6 +266,10 @@ pub(crate) struct LinkStore {
     /// removed, a particle moved, a renumbering): what a cache derived from the neighbourhoods
     /// (the reconstruction's weights) compares to know it is still valid.
     generation: u64,
+    /// The generation and particle count at which every stored link's ends were last checked
+    /// below that count ([`LinkStore::check_in_range`]): while both are unchanged the check
+    /// holds, since every change to a link's ends raises the generation.
+    in_range: Option<(u64, usize)>,
     /// The particles whose incident lists changed, each stamped with the generation of the
     /// change: complete for every change after generation `log_from` (see
     /// [`LinkStore::changed_since`]). Bounded: when it outgrows [`LinkStore::log_capacity`] it
@@ -612,11 +624,33 @@ impl LinkStore {
         }
     }
 
+    /// Panics unless both ends of every stored link are below `count` (a bug in the store:
+    /// `add` and `renumber` take validated ends, `move_particle` renames only the last
+    /// particle). Checked once per change of the links or of the count, not per sweep: the
+    /// unchecked kernels rely on it ([`kernel::solve_batch_unchecked`]).
+    fn check_in_range(&mut self, count: usize) {
+        if self.in_range == Some((self.generation, count)) {
+            return;
+        }
+        for bt in self.batches.iter().chain(std::iter::once(&self.overflow)) {
+            assert!(
+                kernel::indices_below(&bt.blocks, bt.len, count),
+                "link store: a link's particle index is out of range ({count} particles)"
+            );
+        }
+        self.in_range = Some((self.generation, count));
+    }
+
     /// One sweep over all links: colour batches in order, then the ordered overflow batch
-    /// (`fresh` as in [`kernel::solve_batch`]).
+    /// (`fresh` as in [`kernel::solve_batch_unchecked`]).
+    #[allow(unsafe_code)]
     pub(crate) fn solve(&mut self, path: KernelPath, p: &mut [Vec4], inv_h2: f32, fresh: bool) {
+        self.check_in_range(p.len());
         for bt in &mut self.batches {
-            kernel::solve_batch(path, p, &mut bt.blocks, bt.len, inv_h2, fresh);
+            // SAFETY: `check_in_range` just confirmed every link's ends below `p.len()`.
+            unsafe {
+                kernel::solve_batch_unchecked(path, p, &mut bt.blocks, bt.len, inv_h2, fresh);
+            }
         }
         if self.overflow.len > 0 {
             kernel::solve_ordered(
@@ -637,7 +671,10 @@ impl LinkStore {
     /// The colour batches cut into runs for a [`team`] on `threads` threads: every batch of
     /// at least `min_links` links (and at least [`MIN_SPLIT`]) as [`RUNS_PER_THREAD`] runs of
     /// whole blocks per thread, every smaller batch as one run (see [`Runs`]).
-    pub(crate) fn runs(&mut self, min_links: usize, threads: usize) -> Runs<'_> {
+    /// `count` is the number of particles the runs will be solved against ([`Runs::solve`]
+    /// checks it): every link's ends are checked below it here.
+    pub(crate) fn runs(&mut self, min_links: usize, threads: usize, count: usize) -> Runs<'_> {
+        self.check_in_range(count);
         // At most a quarter of a phase's runs per batch, so that all the run numbers of a
         // threaded step fit a phase's 16-bit start (see `SoftBody::substeps_team`).
         let parts = (threads * RUNS_PER_THREAD).clamp(1, team::MAX_RUNS / 4);
@@ -659,6 +696,7 @@ impl LinkStore {
             runs,
             plan,
             parts,
+            count,
             overflow: Mutex::new(&mut self.overflow),
         }
     }

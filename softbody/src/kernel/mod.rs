@@ -48,16 +48,18 @@
 //! run-time paths and about fifteen value intrinsics (arithmetic, square root, in-lane shuffles,
 //! 128-bit inserts and extracts), which safe `std::arch` gives since Rust 1.87 (1.89 for
 //! AVX-512) without a dependency; particles cross into registers through `glam`'s safe
-//! `Vec4 <-> __m128` conversions and every particle access is a checked slice index. The only
-//! `unsafe` left is the call into a `#[target_feature]` function after the run-time feature
-//! check (two blocks in `x86.rs`), which is exactly what `multiversion` or `pulp` would generate
-//! inside our crate or theirs. Unchecked indexing would save the bounds checks (about a tenth
-//! of the kernel's instructions) at the price of a non-local safety argument; not taken.
+//! `Vec4 <-> __m128` conversions. The `unsafe` is the call into a `#[target_feature]` function
+//! after the run-time feature check (in `x86.rs`), which is exactly what `multiversion` or
+//! `pulp` would generate inside our crate or theirs, and the particle accesses of the vector
+//! paths, which skip the bounds check per access (about a tenth of the kernel's instructions,
+//! 8–10% of the Bullet-style 65² step): a batch's indices are checked by the link store once
+//! per change of its links ([`solve_batch_unchecked`]'s contract; debug builds check them at
+//! every sweep as well).
 //!
 //! # One sweep per substep
 //! The default solver takes many substeps of one iteration each (Macklin et al. 2019). Then
 //! every multiplier is 0 when its link is solved and no later sweep of the substep reads it:
-//! [`solve_batch`]'s `fresh` sweep neither loads nor stores them (and the body skips the reset
+//! [`solve_batch_unchecked`]'s `fresh` sweep neither loads nor stores them (and the body skips the reset
 //! pass): the same bits as resetting and sweeping (test
 //! `fresh_sweep_is_a_sweep_from_zero_multipliers`), about 9% less time per default step on the
 //! 65² net (`SoftBody::step`, old and new binaries interleaved in one run: 1.06–1.14 ms →
@@ -87,8 +89,24 @@ pub(crate) trait Particles {
     fn get(&self, i: usize) -> Vec4;
     /// Overwrites particle `i` (panics if out of range).
     fn set(&mut self, i: usize, v: Vec4);
+    /// The number of particles: every index below it is in range.
+    fn count(&self) -> usize;
+    /// Particle `i` without a bounds check, for the vector kernels, which check a whole
+    /// block's indices against [`Particles::count`] at once before they gather.
+    ///
+    /// # Safety
+    /// `i < self.count()`.
+    #[allow(unsafe_code)]
+    unsafe fn get_unchecked(&self, i: usize) -> Vec4;
+    /// Overwrites particle `i` without a bounds check (see [`Particles::get_unchecked`]).
+    ///
+    /// # Safety
+    /// `i < self.count()`.
+    #[allow(unsafe_code)]
+    unsafe fn set_unchecked(&mut self, i: usize, v: Vec4);
 }
 
+#[allow(unsafe_code)]
 impl Particles for [Vec4] {
     #[inline(always)]
     fn get(&self, i: usize) -> Vec4 {
@@ -97,6 +115,20 @@ impl Particles for [Vec4] {
     #[inline(always)]
     fn set(&mut self, i: usize, v: Vec4) {
         self[i] = v;
+    }
+    #[inline(always)]
+    fn count(&self) -> usize {
+        self.len()
+    }
+    #[inline(always)]
+    unsafe fn get_unchecked(&self, i: usize) -> Vec4 {
+        // SAFETY: the caller guarantees `i < self.len()`.
+        unsafe { *<[Vec4]>::get_unchecked(self, i) }
+    }
+    #[inline(always)]
+    unsafe fn set_unchecked(&mut self, i: usize, v: Vec4) {
+        // SAFETY: the caller guarantees `i < self.len()`.
+        unsafe { *<[Vec4]>::get_unchecked_mut(self, i) = v };
     }
 }
 
@@ -220,7 +252,7 @@ pub(crate) struct Lane {
 
 /// Solves lane `k` of a block alone; the reference arithmetic that every path reproduces.
 /// `FRESH`: the link's multiplier is known to be 0 (the first sweep of a substep) and no later
-/// sweep of the substep reads it, so it is neither loaded nor stored (see [`solve_batch`]).
+/// sweep of the substep reads it, so it is neither loaded nor stored (see [`solve_batch_unchecked`]).
 #[inline(always)]
 pub(crate) fn solve_lane<P: Particles + ?Sized, const FRESH: bool>(
     p: &mut P,
@@ -297,10 +329,11 @@ fn solve_quad<P: Particles + ?Sized, const FRESH: bool>(
     }
 }
 
-/// One sweep over a batch of `len` links (in `blocks`) that share no particle. `fresh`: every
-/// multiplier is 0 (the substep's first sweep) and none is read again before the next reset
-/// (its only sweep: one iteration per substep, the default), so the multipliers are neither
-/// loaded nor stored — the same bits, less memory traffic, and no reset pass needed.
+/// [`solve_batch_unchecked`] after checking every particle index of the batch against `p`
+/// (one pass over the indices): the kernel tests' entry point. The link store checks its
+/// indices once per change of its links instead, not per sweep.
+#[cfg(test)]
+#[allow(unsafe_code)]
 pub(crate) fn solve_batch<P: Particles + ?Sized>(
     path: KernelPath,
     p: &mut P,
@@ -309,14 +342,66 @@ pub(crate) fn solve_batch<P: Particles + ?Sized>(
     inv_h2: f32,
     fresh: bool,
 ) {
-    if fresh {
-        batch::<P, true>(path, p, blocks, len, inv_h2);
-    } else {
-        batch::<P, false>(path, p, blocks, len, inv_h2);
+    assert!(
+        indices_below(blocks, len, p.count()),
+        "link kernel: a particle index is out of range"
+    );
+    // SAFETY: every index of the first `len` links was just checked below `p.count()`.
+    unsafe { solve_batch_unchecked(path, p, blocks, len, inv_h2, fresh) }
+}
+
+/// One sweep over a batch of `len` links (in `blocks`) that share no particle. `fresh`: every
+/// multiplier is 0 (the substep's first sweep) and none is read again before the next reset
+/// (its only sweep: one iteration per substep, the default), so the multipliers are neither
+/// loaded nor stored — the same bits, less memory traffic, and no reset pass needed.
+///
+/// The vector paths gather and scatter particles without a bounds check each (there were 32
+/// per block of 16 links, about a tenth of the kernel's instructions; the Bullet-style 65²
+/// cloth's step is 8–10% faster without them), hence the contract.
+///
+/// # Safety
+/// Every particle index (`a` and `b`) of the first `len` links of `blocks` is below
+/// `p.count()` (see [`indices_below`]).
+#[allow(unsafe_code)]
+pub(crate) unsafe fn solve_batch_unchecked<P: Particles + ?Sized>(
+    path: KernelPath,
+    p: &mut P,
+    blocks: &mut [Block],
+    len: usize,
+    inv_h2: f32,
+    fresh: bool,
+) {
+    debug_assert!(indices_below(blocks, len, p.count()));
+    // SAFETY: this function's contract is `batch`'s.
+    unsafe {
+        if fresh {
+            batch::<P, true>(path, p, blocks, len, inv_h2);
+        } else {
+            batch::<P, false>(path, p, blocks, len, inv_h2);
+        }
     }
 }
 
-fn batch<P: Particles + ?Sized, const FRESH: bool>(
+/// Whether both particle indices of each of the first `len` links of `blocks` are below
+/// `count`: what [`solve_batch_unchecked`] needs. One vector maximum per block.
+pub(crate) fn indices_below(blocks: &[Block], len: usize, count: usize) -> bool {
+    let full = len / LANES;
+    let below = |a: &[u32], b: &[u32]| {
+        let max = a.iter().zip(b).fold(0u32, |m, (&i, &j)| m.max(i).max(j));
+        (max as usize) < count
+    };
+    blocks.len() * LANES >= len
+        && blocks[..full].iter().all(|blk| below(&blk.a, &blk.b))
+        && (len == full * LANES || {
+            let n = len - full * LANES;
+            below(&blocks[full].a[..n], &blocks[full].b[..n])
+        })
+}
+
+/// # Safety
+/// As [`solve_batch_unchecked`].
+#[allow(unsafe_code)]
+unsafe fn batch<P: Particles + ?Sized, const FRESH: bool>(
     path: KernelPath,
     p: &mut P,
     blocks: &mut [Block],
@@ -335,9 +420,16 @@ fn batch<P: Particles + ?Sized, const FRESH: bool>(
             full
         }
         #[cfg(target_arch = "x86_64")]
-        KernelPath::Avx2 => x86::blocks_avx2::<P, FRESH>(p, &mut blocks[..full], inv_h2),
+        KernelPath::Avx2 => {
+            // SAFETY: the full blocks' links are among the first `len`, whose indices the
+            // caller guarantees below `p.count()`.
+            unsafe { x86::blocks_avx2::<P, FRESH>(p, &mut blocks[..full], inv_h2) }
+        }
         #[cfg(target_arch = "x86_64")]
-        KernelPath::Avx512 => x86::blocks_avx512::<P, FRESH>(p, &mut blocks[..full], inv_h2),
+        KernelPath::Avx512 => {
+            // SAFETY: as for `Avx2` just above.
+            unsafe { x86::blocks_avx512::<P, FRESH>(p, &mut blocks[..full], inv_h2) }
+        }
         #[cfg(not(target_arch = "x86_64"))]
         KernelPath::Avx2 | KernelPath::Avx512 => 0,
     };
@@ -359,7 +451,9 @@ fn batch<P: Particles + ?Sized, const FRESH: bool>(
             }
             #[cfg(target_arch = "x86_64")]
             KernelPath::Avx2 | KernelPath::Avx512 => {
-                if x86::partial_avx2::<P, FRESH>(p, &mut blocks[full], rest, inv_h2) {
+                // SAFETY: the block's first `rest` links are among the first `len`, whose
+                // indices the caller guarantees below `p.count()`.
+                if unsafe { x86::partial_avx2::<P, FRESH>(p, &mut blocks[full], rest, inv_h2) } {
                     rest
                 } else {
                     0
@@ -376,7 +470,7 @@ fn batch<P: Particles + ?Sized, const FRESH: bool>(
 }
 
 /// One sweep over links that may share particles: strictly in order, one lane at a time
-/// (`fresh` as in [`solve_batch`]).
+/// (`fresh` as in [`solve_batch_unchecked`]).
 pub(crate) fn solve_ordered<P: Particles + ?Sized>(
     p: &mut P,
     blocks: &mut [Block],

@@ -65,4 +65,18 @@ impl Particles for SharedParticles<'_> {
     fn set(&mut self, i: usize, v: Vec4) {
         self.cells[i].set(v);
     }
+    #[inline(always)]
+    fn count(&self) -> usize {
+        self.cells.len()
+    }
+    #[inline(always)]
+    unsafe fn get_unchecked(&self, i: usize) -> Vec4 {
+        // SAFETY: the caller guarantees `i < self.cells.len()`.
+        unsafe { self.cells.get_unchecked(i) }.get()
+    }
+    #[inline(always)]
+    unsafe fn set_unchecked(&mut self, i: usize, v: Vec4) {
+        // SAFETY: the caller guarantees `i < self.cells.len()`.
+        unsafe { self.cells.get_unchecked(i) }.set(v);
+    }
 }

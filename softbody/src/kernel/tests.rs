@@ -259,3 +259,46 @@ fn partial_blocks_match_scalar_and_leave_spare_lanes_alone() {
         }
     }
 }
+
+/// The index check the unchecked kernels rely on: it sees an out-of-range end in a full block
+/// and in the live lanes of a partial one, ignores the stale lanes past the batch's length,
+/// and refuses a length the blocks cannot hold.
+#[test]
+fn index_check_covers_live_lanes_only() {
+    let (p, mut b) = batch(7, 200, 40);
+    let n = p.len();
+    assert!(indices_below(&b, 40, n));
+    // A stale lane past the length (a removed link's leftovers) does not count.
+    b[2].a[10] = n as u32 + 5;
+    assert!(indices_below(&b, 40, n));
+    // Live lanes do: the first link of the partial block, a full block's last lane.
+    b[2].b[0] = n as u32;
+    assert!(!indices_below(&b, 40, n));
+    b[2].b[0] = 0;
+    b[0].a[15] = u32::MAX;
+    assert!(!indices_below(&b, 40, n));
+    b[0].a[15] = 1;
+    assert!(indices_below(&b, 40, n));
+    // Fewer particles than an end needs, and more links than the blocks hold.
+    assert!(!indices_below(&b, 40, 10));
+    assert!(!indices_below(&b, 49, n));
+}
+
+/// A batch with an end past the particles panics before any particle moves (it would read out
+/// of bounds otherwise).
+#[test]
+fn out_of_range_batch_is_refused_on_every_path() {
+    for path in KernelPath::supported() {
+        let (mut p, mut b) = batch(8, 100, 33);
+        b[1].b[3] = p.len() as u32;
+        let before = bits(&p);
+        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            solve_batch(path, p.as_mut_slice(), &mut b, 33, 3600.0, false);
+        }));
+        assert!(
+            r.is_err(),
+            "{path:?} solved a batch with an end out of range"
+        );
+        assert_eq!(bits(&p), before, "{path:?} moved particles before refusing");
+    }
+}

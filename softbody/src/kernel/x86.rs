@@ -2,14 +2,16 @@
 //!
 //! # An exception to `deny(unsafe_code)`
 //! A function compiled for a CPU feature (`#[target_feature]`) may only be called once the CPU
-//! is known to have it, and Rust makes that call `unsafe`. This module holds two `unsafe` blocks
-//! (the others are the shared particle view of `shared.rs`): each calls its kernel right after `is_x86_feature_detected!` confirmed
-//! the feature. Everything else here is safe code: since Rust 1.87 (1.89 for AVX-512) the `std::arch` value
-//! intrinsics are safe inside a function compiled with their feature, particles move between
-//! `glam::Vec4` and `__m128` through `glam`'s safe conversions, and link data is read from and
-//! written to the block's arrays by value. Every particle access goes through
-//! [`Particles`](super::Particles), a checked slice index either way, so a bad index panics
-//! instead of reading out of bounds.
+//! is known to have it, and Rust makes that call `unsafe`: the three entry points
+//! (`blocks_avx512`, `blocks_avx2`, `partial_avx2`) call their kernel right after
+//! `is_x86_feature_detected!` confirmed the feature. The kernels also gather and scatter
+//! particles without a bounds check per access ([`Particles::get_unchecked`]): every entry
+//! point is an `unsafe fn` whose contract is that the links' particle indices are below the
+//! particle count, which the link store checks once per change of its links
+//! (`LinkStore::check_in_range`). The rest is safe code: since Rust 1.87 (1.89 for AVX-512) the `std::arch` value intrinsics are
+//! safe inside a function compiled with their feature, particles move between `glam::Vec4` and
+//! `__m128` through `glam`'s safe conversions, and link data is read from and written to the
+//! block's arrays by value.
 //!
 //! # Layout in registers
 //! Register `r_j` (`j` = 0..3) holds, in its 128-bit lane `L`, the particle of link `4L + j`.
@@ -25,7 +27,10 @@ use std::arch::x86_64::*;
 
 /// Solves every block of `blocks` with AVX-512F; returns the number solved (0 if the CPU
 /// lacks AVX-512F, leaving them to the caller's scalar loop).
-pub(super) fn blocks_avx512<P: Particles + ?Sized, const FRESH: bool>(
+///
+/// # Safety
+/// Every particle index of the blocks' links is below `p.count()`.
+pub(super) unsafe fn blocks_avx512<P: Particles + ?Sized, const FRESH: bool>(
     p: &mut P,
     blocks: &mut [Block],
     inv_h2: f32,
@@ -33,14 +38,18 @@ pub(super) fn blocks_avx512<P: Particles + ?Sized, const FRESH: bool>(
     if !is_x86_feature_detected!("avx512f") {
         return 0;
     }
-    // SAFETY: the CPU supports AVX-512F (checked just above), which is the only requirement
-    // for calling a function compiled with `target_feature(enable = "avx512f")`.
+    // SAFETY: the CPU supports AVX-512F (checked just above), which is what calling a function
+    // compiled with `target_feature(enable = "avx512f")` requires; the indices are in range
+    // (this function's contract, which is `run_avx512`'s).
     unsafe { run_avx512::<P, FRESH>(p, blocks, inv_h2) };
     blocks.len()
 }
 
 /// Solves every block of `blocks` with AVX2; returns the number solved (0 if the CPU lacks AVX2).
-pub(super) fn blocks_avx2<P: Particles + ?Sized, const FRESH: bool>(
+///
+/// # Safety
+/// Every particle index of the blocks' links is below `p.count()`.
+pub(super) unsafe fn blocks_avx2<P: Particles + ?Sized, const FRESH: bool>(
     p: &mut P,
     blocks: &mut [Block],
     inv_h2: f32,
@@ -48,8 +57,9 @@ pub(super) fn blocks_avx2<P: Particles + ?Sized, const FRESH: bool>(
     if !is_x86_feature_detected!("avx2") {
         return 0;
     }
-    // SAFETY: the CPU supports AVX2 (checked just above), which is the only requirement for
-    // calling a function compiled with `target_feature(enable = "avx2")`.
+    // SAFETY: the CPU supports AVX2 (checked just above), which is what calling a function
+    // compiled with `target_feature(enable = "avx2")` requires; the indices are in range (this
+    // function's contract, which is `run_avx2`'s).
     unsafe { run_avx2::<P, FRESH>(p, blocks, inv_h2) };
     blocks.len()
 }
@@ -57,7 +67,10 @@ pub(super) fn blocks_avx2<P: Particles + ?Sized, const FRESH: bool>(
 /// Solves the first `len` (`1..LANES`) links of a batch's last, partial block with AVX2, eight
 /// lanes at a time; returns `false` (nothing solved) if the CPU lacks AVX2. The same bits as
 /// the scalar loop it replaces.
-pub(super) fn partial_avx2<P: Particles + ?Sized, const FRESH: bool>(
+///
+/// # Safety
+/// Both particle indices of each of the block's first `len` links are below `p.count()`.
+pub(super) unsafe fn partial_avx2<P: Particles + ?Sized, const FRESH: bool>(
     p: &mut P,
     blk: &mut Block,
     len: usize,
@@ -66,20 +79,24 @@ pub(super) fn partial_avx2<P: Particles + ?Sized, const FRESH: bool>(
     if !is_x86_feature_detected!("avx2") {
         return false;
     }
-    // SAFETY: the CPU supports AVX2 (checked just above), which is the only requirement for
-    // calling a function compiled with `target_feature(enable = "avx2")`.
+    // SAFETY: the CPU supports AVX2 (checked just above), which is what calling a function
+    // compiled with `target_feature(enable = "avx2")` requires; the indices are in range (this
+    // function's contract, which is `run_partial_avx2`'s).
     unsafe { run_partial_avx2::<P, FRESH>(p, blk, len, inv_h2) };
     true
 }
 
+/// # Safety
+/// The CPU has AVX-512F; every particle index of the blocks' links is below `p.count()`.
 #[target_feature(enable = "avx512f")]
-fn run_avx512<P: Particles + ?Sized, const FRESH: bool>(
+unsafe fn run_avx512<P: Particles + ?Sized, const FRESH: bool>(
     p: &mut P,
     blocks: &mut [Block],
     inv_h2: f32,
 ) {
     for blk in blocks {
-        block_avx512::<P, FRESH>(p, blk, inv_h2);
+        // SAFETY: the block's indices are in range (this function's contract).
+        unsafe { block_avx512::<P, FRESH>(p, blk, inv_h2) };
     }
 }
 
@@ -133,7 +150,9 @@ macro_rules! transpose {
 macro_rules! gather16 {
     ($p:expr, $idx:expr) => {{
         let (p, idx): (&P, &[u32; LANES]) = (&*$p, $idx);
-        let at = |k: usize| -> __m128 { p.get(idx[k] as usize).into() };
+        // SAFETY: every index of `idx` (from `o` on: the links gathered) is below `p.count()`
+        // (the contract of the `unsafe fn` this expands in).
+        let at = |k: usize| -> __m128 { unsafe { p.get_unchecked(idx[k] as usize) }.into() };
         let row = |j: usize| {
             let v = _mm512_castps128_ps512(at(j));
             let v = _mm512_insertf32x4::<1>(v, at(4 + j));
@@ -159,20 +178,16 @@ macro_rules! scatter16 {
             _mm512_unpackhi_ps,
             _mm512_shuffle_ps
         );
+        let mut set = |k: usize, v: __m128| {
+            // SAFETY: every index of `idx` (from `o` on: the links scattered) is below
+            // `p.count()` (the contract of the `unsafe fn` this expands in).
+            unsafe { p.set_unchecked(idx[k] as usize, v.into()) }
+        };
         for j in 0..4 {
-            p.set(idx[j] as usize, _mm512_extractf32x4_ps::<0>(r[j]).into());
-            p.set(
-                idx[4 + j] as usize,
-                _mm512_extractf32x4_ps::<1>(r[j]).into(),
-            );
-            p.set(
-                idx[8 + j] as usize,
-                _mm512_extractf32x4_ps::<2>(r[j]).into(),
-            );
-            p.set(
-                idx[12 + j] as usize,
-                _mm512_extractf32x4_ps::<3>(r[j]).into(),
-            );
+            set(j, _mm512_extractf32x4_ps::<0>(r[j]));
+            set(4 + j, _mm512_extractf32x4_ps::<1>(r[j]));
+            set(8 + j, _mm512_extractf32x4_ps::<2>(r[j]));
+            set(12 + j, _mm512_extractf32x4_ps::<3>(r[j]));
         }
     }};
 }
@@ -214,9 +229,15 @@ macro_rules! solve_registers {
     }};
 }
 
+/// # Safety
+/// The CPU has AVX-512F; every particle index of `blk` is below `p.count()`.
 #[target_feature(enable = "avx512f")]
 #[inline]
-fn block_avx512<P: Particles + ?Sized, const FRESH: bool>(p: &mut P, blk: &mut Block, inv_h2: f32) {
+unsafe fn block_avx512<P: Particles + ?Sized, const FRESH: bool>(
+    p: &mut P,
+    blk: &mut Block,
+    inv_h2: f32,
+) {
     let lambda = if FRESH {
         _mm512_setzero_ps()
     } else {
@@ -265,7 +286,9 @@ fn store8(v: __m256, out: &mut [f32; LANES], o: usize) {
 macro_rules! gather8 {
     ($p:expr, $idx:expr, $o:expr) => {{
         let (p, idx, o): (&P, &[u32; LANES], usize) = (&*$p, $idx, $o);
-        let at = |k: usize| -> __m128 { p.get(idx[o + k] as usize).into() };
+        // SAFETY: every index of `idx` (from `o` on: the links gathered) is below `p.count()`
+        // (the contract of the `unsafe fn` this expands in).
+        let at = |k: usize| -> __m128 { unsafe { p.get_unchecked(idx[o + k] as usize) }.into() };
         let row = |j: usize| _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(at(j)), at(4 + j));
         transpose!(
             [row(0), row(1), row(2), row(3)],
@@ -287,15 +310,17 @@ macro_rules! scatter8_first {
             _mm256_unpackhi_ps,
             _mm256_shuffle_ps
         );
+        let mut set = |k: usize, v: __m128| {
+            // SAFETY: every index of `idx` (from `o` on: the links scattered) is below
+            // `p.count()` (the contract of the `unsafe fn` this expands in).
+            unsafe { p.set_unchecked(idx[o + k] as usize, v.into()) }
+        };
         for j in 0..4 {
             if j < n {
-                p.set(idx[o + j] as usize, _mm256_castps256_ps128(r[j]).into());
+                set(j, _mm256_castps256_ps128(r[j]));
             }
             if 4 + j < n {
-                p.set(
-                    idx[o + 4 + j] as usize,
-                    _mm256_extractf128_ps::<1>(r[j]).into(),
-                );
+                set(4 + j, _mm256_extractf128_ps::<1>(r[j]));
             }
         }
     }};
@@ -334,8 +359,10 @@ fn solve8<const FRESH: bool>(
     )
 }
 
+/// # Safety
+/// The CPU has AVX2; every particle index of the blocks' links is below `p.count()`.
 #[target_feature(enable = "avx2")]
-fn run_avx2<P: Particles + ?Sized, const FRESH: bool>(
+unsafe fn run_avx2<P: Particles + ?Sized, const FRESH: bool>(
     p: &mut P,
     blocks: &mut [Block],
     inv_h2: f32,
@@ -364,8 +391,12 @@ fn run_avx2<P: Particles + ?Sized, const FRESH: bool>(
 /// by the first link's in a local copy, so the gather stays in range, their results are
 /// dropped, and the block's own arrays keep their bits (λ is stored for the real links only).
 /// A half with a single link is left to the scalar lane, which is cheaper there.
+///
+/// # Safety
+/// The CPU has AVX2; both particle indices of each of the block's first `len` links are below
+/// `p.count()`.
 #[target_feature(enable = "avx2")]
-fn run_partial_avx2<P: Particles + ?Sized, const FRESH: bool>(
+unsafe fn run_partial_avx2<P: Particles + ?Sized, const FRESH: bool>(
     p: &mut P,
     blk: &mut Block,
     len: usize,
