@@ -165,7 +165,7 @@ impl Runs<'_> {
         &self,
         run: usize,
         path: KernelPath,
-        p: &mut impl Particles,
+        p: &mut (impl Particles + ?Sized),
         inv_h2: f32,
         fresh: bool,
     ) {
@@ -762,5 +762,45 @@ impl LinkStore {
         assert_eq!(count, self.len);
         let inc: usize = self.incident.iter().map(Vec::len).sum();
         assert_eq!(inc, 2 * self.len);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A store of a few links over `n` particles (a chain).
+    fn chain(n: u32) -> LinkStore {
+        let mut s = LinkStore::default();
+        for _ in 0..n {
+            s.add_particle();
+        }
+        for i in 0..n - 1 {
+            s.add(i, i + 1, 1.0, 0.0, 1.0);
+        }
+        s
+    }
+
+    /// The unchecked kernels rely on the store's index check: solving against fewer particles
+    /// than its links reach panics before anything moves, on every path, and stays refused
+    /// after a check at the right count was cached.
+    #[test]
+    fn solving_against_too_few_particles_is_refused() {
+        for path in KernelPath::supported() {
+            let mut s = chain(40);
+            let mut full = vec![Vec4::new(0.0, 0.0, 0.0, 1.0); 40];
+            s.solve(path, &mut full, 1.0, true);
+            let mut short = vec![Vec4::new(1.0, 2.0, 3.0, 1.0); 39];
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                s.solve(path, &mut short, 1.0, true);
+            }));
+            assert!(r.is_err(), "{path:?}: solved links past the particles");
+            assert!(short.iter().all(|p| *p == Vec4::new(1.0, 2.0, 3.0, 1.0)));
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                let runs = s.runs(1, 2, 40);
+                runs.solve(0, path, short.as_mut_slice(), 1.0, true);
+            }));
+            assert!(r.is_err(), "{path:?}: runs solved against other particles");
+        }
     }
 }
