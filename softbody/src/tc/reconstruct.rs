@@ -335,7 +335,9 @@ struct Entry {
 /// sums. The covering
 /// particle's share is kept even where its kernel vanishes (at a floor), neighbours' only
 /// where their weight is positive, in the order the particles' incident lists give: the sums
-/// are the ones a direct pass would form, bit for bit.
+/// are the ones a direct pass would form, bit for bit (the `Mls` table also sums the zero
+/// weights, four vertices at a time, which leaves every sum's bits unchanged: see
+/// [`SmoothTable::apply_mls`]).
 #[derive(Clone, Debug, Default)]
 pub(super) struct SmoothTable {
     /// The topology generation it was built for (`None`: not built).
@@ -359,17 +361,18 @@ pub(super) struct SmoothTable {
     /// Scratch of [`fit_mls`].
     fit: FitScratch,
     /// The [`ReconstructionMode::Mls`] table, one [`Segment`] per particle (by its current
-    /// index): the vertices its node covers (`mls_vertex`), each with the end of its terms in
-    /// `mls_terms` (`mls_end`), each term a particle and its weight, the vertex's own particle
-    /// first. A topology change redoes only the segments it can have changed (appended; the
-    /// old ones become garbage until the arrays are rebuilt, when garbage outweighs them).
+    /// index): the vertices its node covers (`mls_vertex`), the particles their sums read
+    /// (`mls_near`: the particle itself, then its incident neighbours in incident order) and
+    /// one row of weights per vertex over those particles (`mls_weights`, 0 where the kernel
+    /// vanishes). A topology change redoes only the segments it can have changed (appended;
+    /// the old ones become garbage until the arrays are rebuilt, when garbage outweighs them).
     mls_seg: Vec<Segment>,
     mls_vertex: Vec<u32>,
-    mls_end: Vec<u32>,
-    mls_terms: Vec<(u32, f32)>,
+    mls_near: Vec<u32>,
+    mls_weights: Vec<f32>,
     /// Per particle: the hierarchy node it stood for when its segment was made.
     mls_node: Vec<u32>,
-    /// Vertices and terms the live segments hold (the arrays also hold garbage).
+    /// Vertices and weights the live segments hold (the arrays also hold garbage).
     live_entries: usize,
     live_terms: usize,
     /// Scratch of an update: particles to redo, and marks per particle (its neighbourhood
@@ -380,12 +383,15 @@ pub(super) struct SmoothTable {
 }
 
 /// One particle's part of the [`ReconstructionMode::Mls`] table: its vertices are
-/// `mls_vertex[first..end]`, their terms start at `mls_terms[terms]`.
+/// `mls_vertex[first..end]`, the particles they read `mls_near[near..near + len]`, and their
+/// rows of `len` weights each start at `mls_weights[weights]`.
 #[derive(Clone, Copy, Debug, Default)]
 struct Segment {
     first: u32,
     end: u32,
-    terms: u32,
+    near: u32,
+    len: u32,
+    weights: u32,
 }
 
 /// The [`ReconstructionMode::Mls`] weights of one coarse node's patch and the neighbourhood
@@ -491,7 +497,7 @@ impl SmoothTable {
         let n = body.particle_node.len();
         let changed = since.and_then(|g| body.body.topology_changed_since(g));
         let garbage = self.mls_vertex.len() > 2 * self.live_entries + 4096
-            || self.mls_terms.len() > 2 * self.live_terms + 4096;
+            || self.mls_weights.len() > 2 * self.live_terms + 4096;
         let Some(changed) = changed.filter(|_| !garbage) else {
             self.rebuild_mls_all(body);
             return;
@@ -583,10 +589,40 @@ impl SmoothTable {
     /// Takes particle `p`'s segment out of the live counts (its entries become garbage).
     fn forget_segment(&mut self, p: usize) {
         let seg = self.mls_seg[p];
-        if seg.end > seg.first {
-            self.live_entries -= (seg.end - seg.first) as usize;
-            self.live_terms -= (self.mls_end[seg.end as usize - 1] - seg.terms) as usize;
+        let vertices = (seg.end - seg.first) as usize;
+        self.live_entries -= vertices;
+        self.live_terms -= vertices * seg.len as usize;
+    }
+
+    /// The [`ReconstructionMode::Mls`] sums as the sparse pass forms them: per vertex, its own
+    /// particle's share, then the neighbours' whose weight is not 0, one vertex at a time
+    /// (the reference [`SmoothTable::apply_mls`] reproduces; tests).
+    #[cfg(test)]
+    pub(super) fn apply_mls_sparse(&self, pos: &[glam::Vec4], out: &mut [Vec3]) {
+        for seg in &self.mls_seg {
+            let n = seg.len as usize;
+            let near = &self.mls_near[seg.near as usize..][..n];
+            for (i, &v) in self.mls_vertex[seg.first as usize..seg.end as usize]
+                .iter()
+                .enumerate()
+            {
+                let row = &self.mls_weights[seg.weights as usize + i * n..][..n];
+                let mut acc = glam::Vec4::ZERO + pos[near[0] as usize] * row[0];
+                for (&q, &w) in near[1..].iter().zip(&row[1..]) {
+                    if w != 0.0 {
+                        acc += pos[q as usize] * w;
+                    }
+                }
+                out[v as usize] = acc.truncate();
+            }
         }
+    }
+
+    /// Whether the [`ReconstructionMode::Mls`] table has weights of 0 (kernels that vanish
+    /// inside a segment's neighbourhood; tests).
+    #[cfg(test)]
+    pub(super) fn mls_has_zero_weights(&self) -> bool {
+        self.mls_weights.contains(&0.0)
     }
 
     /// Stale entries the [`ReconstructionMode::Mls`] table holds (left by updates in place).
@@ -606,8 +642,8 @@ impl SmoothTable {
         self.mls_seg.clear();
         self.mls_seg.resize(n, Segment::default());
         self.mls_vertex.clear();
-        self.mls_end.clear();
-        self.mls_terms.clear();
+        self.mls_near.clear();
+        self.mls_weights.clear();
         self.live_entries = 0;
         self.live_terms = 0;
         for p in 0..n {
@@ -622,11 +658,12 @@ impl SmoothTable {
         let node = body.particle_node[p];
         let vertices = h.vertices(node);
         let first = self.mls_vertex.len() as u32;
-        let terms = self.mls_terms.len() as u32;
+        let near_at = self.mls_near.len() as u32;
+        let weights = self.mls_weights.len() as u32;
         if h.is_leaf(node) {
             self.mls_vertex.push(vertices[0]);
-            self.mls_terms.push((p as u32, 1.0));
-            self.mls_end.push(self.mls_terms.len() as u32);
+            self.mls_near.push(p as u32);
+            self.mls_weights.push(1.0);
         } else {
             let mut near = std::mem::take(&mut self.near);
             near.clear();
@@ -659,41 +696,67 @@ impl SmoothTable {
                 );
             }
             let block = slot.as_ref().expect("filled just above");
-            for (&v, row) in vertices.iter().zip(block.rows.chunks_exact(near.len())) {
-                self.mls_vertex.push(v);
-                // The particle's own share always (it is the first), the neighbours' where the
-                // kernel reaches.
-                self.mls_terms.push((p as u32, row[0]));
-                for (&q, &weight) in near[1..].iter().zip(&row[1..]) {
-                    if weight != 0.0 {
-                        self.mls_terms.push((q, weight));
-                    }
-                }
-                self.mls_end.push(self.mls_terms.len() as u32);
-            }
+            self.mls_vertex.extend_from_slice(vertices);
+            self.mls_near.extend_from_slice(&near);
+            self.mls_weights
+                .extend_from_slice(&block.rows[..vertices.len() * near.len()]);
             self.near = near;
         }
         let end = self.mls_vertex.len() as u32;
-        self.mls_seg[p] = Segment { first, end, terms };
+        let len = self.mls_near.len() as u32 - near_at;
+        self.mls_seg[p] = Segment {
+            first,
+            end,
+            near: near_at,
+            len,
+            weights,
+        };
         self.live_entries += (end - first) as usize;
-        self.live_terms += self.mls_terms.len() - terms as usize;
+        self.live_terms += (end - first) as usize * len as usize;
     }
 
-    /// [`ReconstructionMode::Mls`]: every vertex is its weighted sum of particle positions (a
-    /// finest particle's vertex, the particle itself).
+    /// [`ReconstructionMode::Mls`]: every vertex is its row of weights times its segment's
+    /// particles (a finest particle's vertex, the particle itself), summed in the segment's
+    /// particle order. Four vertices of a segment at a time: four independent sums, and an
+    /// inner loop whose length is the segment's, not the vertex's. Zero weights are summed
+    /// too: `acc + x · 0` is `acc` bit for bit for finite positions (`acc` is never −0: it
+    /// starts at +0 and a sum is −0 only when both terms are), so the result is the sparse
+    /// sum's, which skipped them (kept as the reference in the tests).
     fn apply_mls(&self, pos: &[glam::Vec4], out: &mut [Vec3]) {
         for seg in &self.mls_seg {
-            let mut start = seg.terms as usize;
-            for e in seg.first as usize..seg.end as usize {
-                let end = self.mls_end[e] as usize;
-                let terms = &self.mls_terms[start..end];
+            let n = seg.len as usize;
+            let near = &self.mls_near[seg.near as usize..seg.near as usize + n];
+            let vertices = &self.mls_vertex[seg.first as usize..seg.end as usize];
+            let w =
+                &self.mls_weights[seg.weights as usize..seg.weights as usize + vertices.len() * n];
+            let quads = vertices.len() / 4;
+            for (v, w) in vertices.chunks_exact(4).zip(w.chunks_exact(4 * n)) {
+                let (w0, rest) = w.split_at(n);
+                let (w1, rest) = rest.split_at(n);
+                let (w2, w3) = rest.split_at(n);
+                let mut acc = [glam::Vec4::ZERO; 4];
+                for (k, &q) in near.iter().enumerate() {
+                    let x = pos[q as usize];
+                    acc[0] += x * w0[k];
+                    acc[1] += x * w1[k];
+                    acc[2] += x * w2[k];
+                    acc[3] += x * w3[k];
+                }
+                for (&v, a) in v.iter().zip(acc) {
+                    out[v as usize] = a.truncate();
+                }
+            }
+            for (&v, w) in vertices[4 * quads..]
+                .iter()
+                .zip(w[4 * quads * n..].chunks_exact(n))
+            {
                 // In four lanes (the particle's inverse mass rides along in `w` and is
                 // dropped): the same products and sums per coordinate as three scalar lanes.
-                out[self.mls_vertex[e] as usize] = terms
+                out[v as usize] = near
                     .iter()
-                    .fold(glam::Vec4::ZERO, |acc, &(q, w)| acc + pos[q as usize] * w)
+                    .zip(w)
+                    .fold(glam::Vec4::ZERO, |acc, (&q, &w)| acc + pos[q as usize] * w)
                     .truncate();
-                start = end;
             }
         }
     }
