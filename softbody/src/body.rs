@@ -14,7 +14,7 @@ use crate::collide::{Colliders, ContactParticles};
 use crate::error::SoftBodyError;
 use crate::group::{GroupId, GroupStore, GroupTarget};
 use crate::ids::{LinkId, ParticleId};
-use crate::kernel::KernelPath;
+use crate::kernel::{self, KernelPath};
 use crate::kernel::{Particles, SharedParticles};
 use crate::links::{LinkInfo, LinkStore};
 use crate::settings::SolverSettings;
@@ -94,19 +94,28 @@ impl Motion {
 
     /// [`update_velocities`] then [`Motion::predict`], fused: per particle the velocity of the
     /// substep that ends (`(x − prev) / h`) and the prediction of the next, bit for bit what the
-    /// two passes give, in one pass over the particles.
+    /// two passes give, in one pass over the particles (two particles per register where the
+    /// kernel path has AVX2: [`kernel::update_and_predict`]).
     fn update_and_predict(
         &self,
+        path: KernelPath,
         x: &mut [Vec4],
         v: &mut [Vec4],
         f: &[Vec4],
         prev: &mut [Vec4],
         inv_h: f32,
     ) {
-        for (((x, v), f), prev) in x.iter_mut().zip(v).zip(f).zip(prev) {
-            let ended = (*x - *prev) * inv_h;
-            *prev = *x;
-            (*x, *v) = self.particle(*x, ended, *f);
+        let m = self.consts(inv_h);
+        kernel::update_and_predict(path, &m, kernel::MotionSlices { x, v, f, prev });
+    }
+
+    /// The kernel's view of these constants.
+    fn consts(&self, inv_h: f32) -> kernel::MotionConsts {
+        kernel::MotionConsts {
+            h: self.h,
+            damp: self.damp,
+            g: self.g,
+            inv_h,
         }
     }
 
@@ -124,11 +133,7 @@ impl Motion {
     /// One particle's predicted position and velocity.
     #[inline(always)]
     fn particle(&self, x: Vec4, v: Vec4, f: Vec4) -> (Vec4, Vec4) {
-        let Self { h, damp, g } = *self;
-        let free = if x.w > 0.0 { 1.0 } else { 0.0 };
-        // Damping acts on the carried velocity only, so it does not weaken static loads.
-        let vel = (v * damp + (g + f * x.w) * h) * free;
-        (x + vel * h, vel)
+        kernel::predict_particle(&self.consts(0.0), x, v, f)
     }
 }
 
@@ -755,6 +760,7 @@ impl SoftBody {
                     // This substep's velocities and the next one's prediction in one pass over
                     // the particles (the same arithmetic as the two passes in turn).
                     motion.update_and_predict(
+                        self.kernel,
                         &mut self.positions,
                         &mut self.velocities,
                         &self.forces,

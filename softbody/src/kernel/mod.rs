@@ -490,3 +490,58 @@ pub(crate) fn solve_ordered<P: Particles + ?Sized>(
 
 #[cfg(test)]
 mod tests;
+
+/// The per-substep constants of the prediction: substep `h`, its damping factor, gravity (with
+/// 0 in `w`) and `1 / h`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct MotionConsts {
+    pub(crate) h: f32,
+    pub(crate) damp: f32,
+    pub(crate) g: Vec4,
+    pub(crate) inv_h: f32,
+}
+
+/// The particle arrays one substep's velocity update and prediction run over (equal lengths).
+pub(crate) struct MotionSlices<'a> {
+    pub(crate) x: &'a mut [Vec4],
+    pub(crate) v: &'a mut [Vec4],
+    pub(crate) f: &'a [Vec4],
+    pub(crate) prev: &'a mut [Vec4],
+}
+
+/// One particle's predicted position and velocity from its position `x` (inverse mass in
+/// `w`), velocity `v` and external force `f`: pinned particles (`w = 0`) keep still, damping
+/// acts on the carried velocity only (so it does not weaken static loads).
+#[inline(always)]
+pub(crate) fn predict_particle(m: &MotionConsts, x: Vec4, v: Vec4, f: Vec4) -> (Vec4, Vec4) {
+    let free = if x.w > 0.0 { 1.0 } else { 0.0 };
+    let vel = (v * m.damp + (m.g + f * x.w) * m.h) * free;
+    (x + vel * m.h, vel)
+}
+
+/// The velocity of the substep that ends (`(x − prev) / h`) and the prediction of the next,
+/// per particle, in one pass: on x86-64 with AVX2 two particles per register (unless `path`
+/// is [`KernelPath::Scalar`] or [`KernelPath::Lanes4`]), else one at a time; the same bits
+/// either way (test `motion_pass_matches_on_every_path`).
+pub(crate) fn update_and_predict(path: KernelPath, m: &MotionConsts, s: MotionSlices<'_>) {
+    debug_assert!(s.x.len() == s.v.len() && s.x.len() == s.f.len() && s.x.len() == s.prev.len());
+    #[cfg(target_arch = "x86_64")]
+    if matches!(path, KernelPath::Avx2 | KernelPath::Avx512)
+        && std::arch::is_x86_feature_detected!("avx2")
+    {
+        x86::update_and_predict_avx2(m, s);
+        return;
+    }
+    let _ = path;
+    update_and_predict_lanes(m, s);
+}
+
+/// [`update_and_predict`] one particle at a time.
+pub(crate) fn update_and_predict_lanes(m: &MotionConsts, s: MotionSlices<'_>) {
+    let MotionSlices { x, v, f, prev } = s;
+    for (((x, v), f), prev) in x.iter_mut().zip(v).zip(f).zip(prev) {
+        let ended = (*x - *prev) * m.inv_h;
+        *prev = *x;
+        (*x, *v) = predict_particle(m, *x, ended, *f);
+    }
+}

@@ -1,9 +1,10 @@
-//! The AVX2 and AVX-512F block kernels (x86-64), selected at run time.
+//! The AVX2 and AVX-512F block kernels (x86-64), selected at run time, and the AVX2 pass of a
+//! substep's velocity update and prediction (two particles per register).
 //!
 //! # An exception to `deny(unsafe_code)`
 //! A function compiled for a CPU feature (`#[target_feature]`) may only be called once the CPU
-//! is known to have it, and Rust makes that call `unsafe`: the three entry points
-//! (`blocks_avx512`, `blocks_avx2`, `partial_avx2`) call their kernel right after
+//! is known to have it, and Rust makes that call `unsafe`: the entry points (`blocks_avx512`,
+//! `blocks_avx2`, `partial_avx2`, `update_and_predict_avx2`) call their kernel right after
 //! `is_x86_feature_detected!` confirmed the feature. The kernels also gather and scatter
 //! particles without a bounds check per access ([`Particles::get_unchecked`]): every entry
 //! point is an `unsafe fn` whose contract is that the links' particle indices are below the
@@ -422,4 +423,81 @@ unsafe fn run_partial_avx2<P: Particles + ?Sized, const FRESH: bool>(
         scatter8_first!(p, &a, o, na, n);
         scatter8_first!(p, &b, o, nb, n);
     }
+}
+
+// ---- The fused velocity update and prediction of a substep, two particles per register ----
+
+/// [`update_and_predict`](super::update_and_predict) with AVX2, two particles per register
+/// (the one-particle loop where the CPU lacks AVX2). The same operations per lane as the
+/// one-particle loop, so the same bits. About a tenth of the default step (32 substeps × 1
+/// iteration) of the 65² net: 0.580 → 0.504 ms (medians of eleven interleaved runs).
+pub(super) fn update_and_predict_avx2(m: &super::MotionConsts, s: super::MotionSlices<'_>) {
+    if is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2 (checked just above), which is all that calling a
+        // function compiled with `target_feature(enable = "avx2")` requires.
+        unsafe { run_update_and_predict_avx2(m, s) };
+    } else {
+        super::update_and_predict_lanes(m, s);
+    }
+}
+
+/// Two `Vec4`s as one register (safe: `glam`'s conversions and an in-register insert).
+#[target_feature(enable = "avx2")]
+#[inline]
+fn pair(a: Vec4, b: Vec4) -> __m256 {
+    _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(a.into()), b.into())
+}
+
+/// The register's two halves back as `Vec4`s.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn unpair(r: __m256) -> (Vec4, Vec4) {
+    (
+        Vec4::from(_mm256_castps256_ps128(r)),
+        Vec4::from(_mm256_extractf128_ps::<1>(r)),
+    )
+}
+
+#[target_feature(enable = "avx2")]
+fn run_update_and_predict_avx2(m: &super::MotionConsts, s: super::MotionSlices<'_>) {
+    let super::MotionSlices { x, v, f, prev } = s;
+    let (h, damp, inv_h) = (
+        _mm256_set1_ps(m.h),
+        _mm256_set1_ps(m.damp),
+        _mm256_set1_ps(m.inv_h),
+    );
+    let g = pair(m.g, m.g);
+    let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
+    let pairs = x.len() / 2;
+    let (x2, v2, f2, p2) = (
+        x[..2 * pairs].chunks_exact_mut(2),
+        v[..2 * pairs].chunks_exact_mut(2),
+        f[..2 * pairs].chunks_exact(2),
+        prev[..2 * pairs].chunks_exact_mut(2),
+    );
+    for (((x, v), f), prev) in x2.zip(v2).zip(f2).zip(p2) {
+        let xx = pair(x[0], x[1]);
+        let ended = _mm256_mul_ps(_mm256_sub_ps(xx, pair(prev[0], prev[1])), inv_h);
+        (prev[0], prev[1]) = (x[0], x[1]);
+        // Each particle's inverse mass in all four of its lanes; free = 1 where it is > 0.
+        let w = _mm256_permute_ps::<0xFF>(xx);
+        let free = _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(w, zero), one);
+        let force = _mm256_mul_ps(pair(f[0], f[1]), w);
+        let vel = _mm256_mul_ps(
+            _mm256_add_ps(
+                _mm256_mul_ps(ended, damp),
+                _mm256_mul_ps(_mm256_add_ps(g, force), h),
+            ),
+            free,
+        );
+        (x[0], x[1]) = unpair(_mm256_add_ps(xx, _mm256_mul_ps(vel, h)));
+        (v[0], v[1]) = unpair(vel);
+    }
+    let tail = super::MotionSlices {
+        x: &mut x[2 * pairs..],
+        v: &mut v[2 * pairs..],
+        f: &f[2 * pairs..],
+        prev: &mut prev[2 * pairs..],
+    };
+    super::update_and_predict_lanes(m, tail);
 }
