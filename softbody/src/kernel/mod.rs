@@ -1,5 +1,6 @@
 //! The XPBD distance-link kernel: one sweep over a colour batch of links, on the widest
-//! vector unit the CPU has.
+//! vector unit the CPU has; and the substep's per-particle velocity update and prediction
+//! ([`update_and_predict`]), two particles per register where AVX2 is there.
 //!
 //! Based on: M. Macklin, M. Müller, N. Chentanez, "XPBD: Position-Based Simulation of
 //! Compliant Constrained Dynamics", Motion in Games 2016, section 3 (the compliant
@@ -91,8 +92,9 @@ pub(crate) trait Particles {
     fn set(&mut self, i: usize, v: Vec4);
     /// The number of particles: every index below it is in range.
     fn count(&self) -> usize;
-    /// Particle `i` without a bounds check, for the vector kernels, which check a whole
-    /// block's indices against [`Particles::count`] at once before they gather.
+    /// Particle `i` without a bounds check, for the vector kernels, whose callers have checked
+    /// every index of the batch against [`Particles::count`] (the link store once per change
+    /// of its links: see [`solve_batch_unchecked`]).
     ///
     /// # Safety
     /// `i < self.count()`.
