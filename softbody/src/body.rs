@@ -73,13 +73,10 @@ fn finite3(v: Vec3, what: &'static str) -> Result<(), SoftBodyError> {
     }
 }
 
-/// The per-substep constants of the prediction (see [`SoftBody::step`]).
+/// The per-substep constants of the prediction (see [`SoftBody::step`]) and the passes over
+/// the particles that use them.
 #[derive(Clone, Copy)]
-struct Motion {
-    h: f32,
-    damp: f32,
-    g: Vec4,
-}
+struct Motion(kernel::MotionConsts);
 
 impl Motion {
     /// Predicts positions from velocities, gravity and external forces (pinned particles keep
@@ -103,20 +100,8 @@ impl Motion {
         v: &mut [Vec4],
         f: &[Vec4],
         prev: &mut [Vec4],
-        inv_h: f32,
     ) {
-        let m = self.consts(inv_h);
-        kernel::update_and_predict(path, &m, kernel::MotionSlices { x, v, f, prev });
-    }
-
-    /// The kernel's view of these constants.
-    fn consts(&self, inv_h: f32) -> kernel::MotionConsts {
-        kernel::MotionConsts {
-            h: self.h,
-            damp: self.damp,
-            g: self.g,
-            inv_h,
-        }
+        kernel::update_and_predict(path, &self.0, kernel::MotionSlices { x, v, f, prev });
     }
 
     /// [`Motion::predict`] of the cells of one thread's range of particles.
@@ -133,7 +118,7 @@ impl Motion {
     /// One particle's predicted position and velocity.
     #[inline(always)]
     fn particle(&self, x: Vec4, v: Vec4, f: Vec4) -> (Vec4, Vec4) {
-        kernel::predict_particle(&self.consts(0.0), x, v, f)
+        kernel::predict_particle(&self.0, x, v, f)
     }
 }
 
@@ -705,11 +690,12 @@ impl SoftBody {
         let h = s.dt / n as f32;
         let inv_h = 1.0 / h;
         let inv_h2 = inv_h * inv_h;
-        let motion = Motion {
+        let motion = Motion(kernel::MotionConsts {
             h,
             damp: (-s.damping * h).exp(),
             g: s.gravity.extend(0.0),
-        };
+            inv_h,
+        });
         let colliding = !self.colliders.is_empty();
         let threads = self.threads();
         // One sweep per substep (the default): every link's multiplier is 0 when it is solved
@@ -723,7 +709,7 @@ impl SoftBody {
             self.contact.touched.fill(false);
         }
         if threads > 1 {
-            self.substeps_team(threads, motion, inv_h, colliding, fresh);
+            self.substeps_team(threads, motion, colliding, fresh);
         } else {
             motion.predict(
                 &mut self.positions,
@@ -765,7 +751,6 @@ impl SoftBody {
                         &mut self.velocities,
                         &self.forces,
                         &mut self.prev,
-                        inv_h,
                     );
                 } else {
                     update_velocities(&mut self.velocities, &self.positions, &self.prev, inv_h);
@@ -786,16 +771,10 @@ impl SoftBody {
     /// (its range of them, or the disjoint links of one colour batch) or its own blocks, so
     /// the result has exactly the bits of the one-thread loop.
     #[allow(unsafe_code)]
-    fn substeps_team(
-        &mut self,
-        threads: usize,
-        motion: Motion,
-        inv_h: f32,
-        colliding: bool,
-        fresh: bool,
-    ) {
+    fn substeps_team(&mut self, threads: usize, motion: Motion, colliding: bool, fresh: bool) {
         let s = self.settings;
         let n = s.substeps;
+        let inv_h = motion.0.inv_h;
         let inv_h2 = inv_h * inv_h;
         let Self {
             positions,

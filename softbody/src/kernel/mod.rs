@@ -528,9 +528,8 @@ pub(crate) fn predict_particle(m: &MotionConsts, x: Vec4, v: Vec4, f: Vec4) -> (
 pub(crate) fn update_and_predict(path: KernelPath, m: &MotionConsts, s: MotionSlices<'_>) {
     debug_assert!(s.x.len() == s.v.len() && s.x.len() == s.f.len() && s.x.len() == s.prev.len());
     #[cfg(target_arch = "x86_64")]
-    if matches!(path, KernelPath::Avx2 | KernelPath::Avx512)
-        && std::arch::is_x86_feature_detected!("avx2")
-    {
+    if matches!(path, KernelPath::Avx2 | KernelPath::Avx512) {
+        // Falls back to the one-particle loop itself where the CPU lacks AVX2.
         x86::update_and_predict_avx2(m, s);
         return;
     }

@@ -9,10 +9,10 @@
 //! particles without a bounds check per access ([`Particles::get_unchecked`]): every entry
 //! point is an `unsafe fn` whose contract is that the links' particle indices are below the
 //! particle count, which the link store checks once per change of its links
-//! (`LinkStore::check_in_range`). The rest is safe code: since Rust 1.87 (1.89 for AVX-512) the `std::arch` value intrinsics are
-//! safe inside a function compiled with their feature, particles move between `glam::Vec4` and
-//! `__m128` through `glam`'s safe conversions, and link data is read from and written to the
-//! block's arrays by value.
+//! (`LinkStore::check_in_range`). The rest is safe code: since Rust 1.87 (1.89 for AVX-512)
+//! the `std::arch` value intrinsics are safe inside a function compiled with their feature,
+//! particles move between `glam::Vec4` and `__m128` through `glam`'s safe conversions, and link
+//! data is read from and written to the block's arrays by value.
 //!
 //! # Layout in registers
 //! Register `r_j` (`j` = 0..3) holds, in its 128-bit lane `L`, the particle of link `4L + j`.

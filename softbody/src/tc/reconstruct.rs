@@ -354,10 +354,8 @@ pub(super) struct SmoothTable {
     /// [`ReconstructionMode::Mls`]: per hierarchy node, its patch's weights for the
     /// neighbourhood they were fitted to (kept while the node is off the cut too).
     blocks: Vec<Option<MlsBlock>>,
-    /// Scratch: the neighbourhood key of the particle being checked, and its particles (itself
-    /// first).
+    /// Scratch: the neighbourhood key of the particle being checked.
     key: Vec<(u32, u32)>,
-    near: Vec<u32>,
     /// Scratch of [`fit_mls`].
     fit: FitScratch,
     /// The [`ReconstructionMode::Mls`] table, one [`Segment`] per particle (by its current
@@ -660,18 +658,17 @@ impl SmoothTable {
         let first = self.mls_vertex.len() as u32;
         let near_at = self.mls_near.len() as u32;
         let weights = self.mls_weights.len() as u32;
+        // The segment's particles: itself, then (a coarse node) its neighbours in incident
+        // order.
+        self.mls_near.push(p as u32);
         if h.is_leaf(node) {
             self.mls_vertex.push(vertices[0]);
-            self.mls_near.push(p as u32);
             self.mls_weights.push(1.0);
         } else {
-            let mut near = std::mem::take(&mut self.near);
-            near.clear();
-            near.push(p as u32);
             self.key.clear();
             for q in body.body.neighbours(ParticleId::new(p)) {
                 let qi = q.index();
-                near.push(qi as u32);
+                self.mls_near.push(qi as u32);
                 self.key.push((
                     body.particle_node[qi].index() as u32,
                     self.support_sq[qi].to_bits(),
@@ -696,11 +693,10 @@ impl SmoothTable {
                 );
             }
             let block = slot.as_ref().expect("filled just above");
+            let n = self.mls_near.len() - near_at as usize;
             self.mls_vertex.extend_from_slice(vertices);
-            self.mls_near.extend_from_slice(&near);
             self.mls_weights
-                .extend_from_slice(&block.rows[..vertices.len() * near.len()]);
-            self.near = near;
+                .extend_from_slice(&block.rows[..vertices.len() * n]);
         }
         let end = self.mls_vertex.len() as u32;
         let len = self.mls_near.len() as u32 - near_at;
