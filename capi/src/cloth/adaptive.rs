@@ -251,7 +251,9 @@ impl AdaptiveCloth {
             // Keep the controller's learned state when only other settings change.
             Some(f) if f.settings.budget == settings.budget => {
                 f.settings = settings;
-                f.evaluator.set_settings(settings.evaluator_settings());
+                let budget = f.node_budget(self.body.hierarchy().vertex_count());
+                f.evaluator
+                    .set_settings(settings.evaluator_settings(budget));
             }
             _ => {
                 let h = self.body.hierarchy();
@@ -282,7 +284,9 @@ impl AdaptiveCloth {
                 };
                 settings.validate()?;
                 f.settings = settings;
-                f.evaluator.set_settings(settings.evaluator_settings());
+                let budget = f.node_budget(self.body.hierarchy().vertex_count());
+                f.evaluator
+                    .set_settings(settings.evaluator_settings(budget));
                 Ok(())
             }
             f => {
@@ -440,6 +444,9 @@ impl AdaptiveCloth {
             .raise_priorities(&self.body, &mut f.priorities, view);
         let h = self.body.hierarchy_arc().clone();
         let budget = f.node_budget(h.vertex_count());
+        // The operation limit follows the budget (see `FeedbackSettings::ops_per_evaluation`).
+        f.evaluator
+            .set_settings(f.settings.evaluator_settings(budget));
         if !matches!(
             f.settings.budget,
             super::feedback::ClothBudget::MaxErrorPx(_)
@@ -453,7 +460,7 @@ impl AdaptiveCloth {
                 .map(|n| f.priorities[n.index()] as f64)
                 .sum::<f64>()
                 / active.len().max(1) as f64;
-            let mut e = f.settings.evaluator_settings();
+            let mut e = f.settings.evaluator_settings(budget);
             let flicker = f.flicker_gain(
                 self.stats.refines + self.stats.coarses,
                 self.stats.undone_ops,

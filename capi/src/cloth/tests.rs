@@ -132,6 +132,43 @@ fn every_planned_operation_begins() {
     }
 }
 
+/// With `max_ops` at 0 (the default) an evaluation begins at most a tenth of the node budget,
+/// rounded up, so the limit follows the cloth's size; an explicit `max_ops` is kept as given.
+/// A finest 33×33 net far over its budget merges as many families as it may at its first
+/// evaluation: exactly the limit.
+#[test]
+fn operation_limit_scales_with_the_budget() {
+    let defaults = FeedbackSettings::default();
+    assert_eq!(defaults.max_ops, 0);
+    for (budget, max_ops, limit) in [(500, 0, 50), (200, 0, 20), (91, 0, 10), (500, 7, 7)] {
+        let settings = FeedbackSettings {
+            budget: ClothBudget::Nodes(budget),
+            interval: 1,
+            max_ops,
+            ..defaults
+        };
+        assert_eq!(settings.ops_per_evaluation(budget), limit);
+        let mut c = net(33, 0, TreeCutSettings::default());
+        c.set_feedback(Some(settings)).unwrap();
+        c.step(&camera()).unwrap();
+        let s = c.stats();
+        assert_eq!(s.evaluations, 1, "{s:?}");
+        assert_eq!(
+            s.coarses + s.refines,
+            limit as u64,
+            "budget {budget}: {s:?}"
+        );
+    }
+    assert_eq!(defaults.ops_per_evaluation(0), 1);
+    assert_eq!(defaults.ops_per_evaluation(4992), 500);
+    // The error bound merges at a fixed pace (see `ERROR_BOUND_MAX_OPS`).
+    let bound = FeedbackSettings {
+        budget: ClothBudget::MaxErrorPx(1.0),
+        ..defaults
+    };
+    assert_eq!(bound.ops_per_evaluation(4225), super::ERROR_BOUND_MAX_OPS);
+}
+
 /// Bad input gets a clear error and changes nothing.
 #[test]
 fn bad_feedback_input_is_refused_and_changes_nothing() {
@@ -166,7 +203,6 @@ fn bad_feedback_input_is_refused_and_changes_nothing() {
             hysteresis: f32::NAN,
             ..good
         },
-        FeedbackSettings { max_ops: 0, ..good },
         FeedbackSettings {
             memory_seconds: -1.0,
             ..good

@@ -153,7 +153,9 @@ pub struct SlodFeedbackDesc {
     pub budget_value: f64,
     /// Evaluate every `interval` steps, 1..=100000 (the paper's k).
     pub interval: u32,
-    /// Most refine/coarse operations begun per evaluation, 1..=1048576.
+    /// Most refine/coarse operations begun per evaluation, 0..=1048576; 0 (the default) scales
+    /// the limit with the cut: a tenth of the node budget at each evaluation (at least one),
+    /// 64 under `SLOD_CLOTH_BUDGET_MAX_ERROR_PX`, which merges at a fixed pace.
     pub max_ops: u32,
     /// Minimum priority gain for moving detail, as a multiple of the simulated nodes' mean
     /// priority (finite, >= 0; default 1.5): keeps nodes from flickering.
@@ -807,7 +809,7 @@ impl SlodFeedbackDesc {
             }
         };
         check_u32(self.interval, 1, 100_000, "desc.interval")?;
-        check_u32(self.max_ops, 1, 1 << 20, "desc.max_ops")?;
+        check_u32(self.max_ops, 0, 1 << 20, "desc.max_ops")?;
         in_range(self.hysteresis, 0.0, f32::MAX, "desc.hysteresis")?;
         in_range(self.memory_seconds, 0.0, 1.0e4, "desc.memory_seconds")?;
         in_range(

@@ -622,7 +622,9 @@ impl FrameBudgeter {
     /// transitions in flight stay within `transition_share` of the target plus what the last
     /// frame left unspent: what is left of that allowance after the transitions already
     /// blending, shared equally (at least one operation
-    /// each, at most the default `max_ops` of [`FeedbackSettings`]).
+    /// each, at most what the cloth's settings with the automatic `max_ops` allow at its node
+    /// count: [`FeedbackSettings::ops_per_evaluation`]; the cap set here replaces `max_ops`, so
+    /// the automatic value, not the last cap, bounds the next).
     /// Cloths that keep their own budget, and worlds without one, are left alone.
     fn cap_transitions(&self, jobs: &mut [ClothJob<'_>]) -> Result<(), WorldError> {
         let (Some(target), share) = (self.target_units(), self.settings.transition_share) else {
@@ -645,15 +647,17 @@ impl FrameBudgeter {
         if due == 0 {
             return Ok(());
         }
-        let default_ops = FeedbackSettings::default().max_ops;
-        let each = ((room / due as f64).floor() as usize).clamp(1, default_ops);
+        let fair = (room / due as f64).floor() as usize;
         for j in jobs
             .iter_mut()
             .filter(|j| shared(j) && j.cloth.evaluation_due())
         {
-            if let Some(&f) = j.cloth.feedback()
-                && f.max_ops != each
-            {
+            let Some(&f) = j.cloth.feedback() else {
+                continue;
+            };
+            let auto = FeedbackSettings { max_ops: 0, ..f };
+            let each = fair.clamp(1, auto.ops_per_evaluation(j.cloth.node_count()));
+            if f.max_ops != each {
                 j.cloth
                     .set_feedback(Some(FeedbackSettings { max_ops: each, ..f }))?;
             }

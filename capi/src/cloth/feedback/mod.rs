@@ -26,8 +26,8 @@ use memory::Memory;
 pub(crate) use radii::node_radii;
 pub(crate) use settings::ERROR_BOUND_REFINE;
 pub use settings::{
-    ClothBudget, FLICKER_GAIN_MAX, FLICKER_HALF_LIFE_SECONDS, FeedbackSettings, PriorityModel,
-    compression_nodes,
+    AUTO_MAX_OPS_FRACTION, ClothBudget, ERROR_BOUND_MAX_OPS, FLICKER_GAIN_MAX,
+    FLICKER_HALF_LIFE_SECONDS, FeedbackSettings, PriorityModel, compression_nodes,
 };
 
 /// Whether a node's level changed within the undo window (see [`Feedback::measure`]).
@@ -116,7 +116,7 @@ impl Feedback {
             _ => None,
         };
         Feedback {
-            evaluator: Evaluator::new(settings.evaluator_settings()),
+            evaluator: Evaluator::new(settings.evaluator_settings(full_nodes)),
             shared_bound: false,
             flicker_log2: 0.0,
             undone_seen: 0,

@@ -68,7 +68,10 @@ pub struct FeedbackSettings {
     /// there, at 3× the distance, and in the perception scenes (see `slod_experiments`).
     /// Ignored by [`ClothBudget::MaxErrorPx`], whose hysteresis is a fraction of its bound.
     pub hysteresis: f32,
-    /// Most operations begun per evaluation (≥ 1); bounds the work of one step.
+    /// Most operations begun per evaluation; bounds the work of one step. 0 (the default)
+    /// scales it with the cut: [`AUTO_MAX_OPS_FRACTION`] of the node budget at that evaluation
+    /// (at least one), or [`ERROR_BOUND_MAX_OPS`] under [`ClothBudget::MaxErrorPx`] (see
+    /// [`FeedbackSettings::ops_per_evaluation`]).
     pub max_ops: usize,
     /// How salience becomes priority.
     pub priority: PriorityModel,
@@ -174,7 +177,7 @@ impl Default for FeedbackSettings {
             interval: 5,
             budget: ClothBudget::Compression(0.3),
             hysteresis: 1.5,
-            max_ops: 64,
+            max_ops: 0,
             priority: PriorityModel::default(),
             params: BswdfParams {
                 sides: Sidedness::TwoSided,
@@ -193,19 +196,33 @@ impl Default for FeedbackSettings {
 }
 
 impl FeedbackSettings {
-    /// The evaluator settings these feedback settings imply.
-    pub(crate) fn evaluator_settings(&self) -> EvaluatorSettings {
+    /// Most operations one evaluation may begin under a node budget of `budget_nodes`:
+    /// [`FeedbackSettings::max_ops`] when set, else [`AUTO_MAX_OPS_FRACTION`] of the budget,
+    /// rounded up (at least one), and [`ERROR_BOUND_MAX_OPS`] under
+    /// [`ClothBudget::MaxErrorPx`].
+    pub fn ops_per_evaluation(&self, budget_nodes: usize) -> usize {
+        match self.budget {
+            _ if self.max_ops > 0 => self.max_ops,
+            ClothBudget::MaxErrorPx(_) => ERROR_BOUND_MAX_OPS,
+            _ => ((budget_nodes as f64 * AUTO_MAX_OPS_FRACTION).ceil() as usize).max(1),
+        }
+    }
+
+    /// The evaluator settings these feedback settings imply under a node budget of
+    /// `budget_nodes`.
+    pub(crate) fn evaluator_settings(&self, budget_nodes: usize) -> EvaluatorSettings {
+        let max_ops = self.ops_per_evaluation(budget_nodes);
         if let ClothBudget::MaxErrorPx(bound) = self.budget {
             // Priorities are pixels of estimated error; a swap must gain a quarter of the bound.
             return EvaluatorSettings {
                 hysteresis: ERROR_BOUND_HYSTERESIS * bound,
-                max_ops: self.max_ops,
+                max_ops,
                 merge_key: MergeKey::Parent,
             };
         }
         EvaluatorSettings {
             hysteresis: self.hysteresis,
-            max_ops: self.max_ops,
+            max_ops,
             merge_key: match self.priority {
                 PriorityModel::Salience => MergeKey::MaxOfChildren,
                 PriorityModel::ScreenError | PriorityModel::ScreenDeviation => MergeKey::Parent,
@@ -243,9 +260,6 @@ impl FeedbackSettings {
         }
         if !(self.motion_weight.is_finite() && self.motion_weight >= 0.0) {
             return bad("motion_weight", "must be finite and >= 0");
-        }
-        if self.max_ops == 0 {
-            return bad("max_ops", "must be >= 1");
         }
         if let Some(t) = self.flicker_target
             && !(t.is_finite() && t > 0.0 && t < 1.0)
@@ -319,6 +333,26 @@ pub const FLICKER_HALF_LIFE_SECONDS: f32 = 2.0;
 /// doublings, enough to stop the chaotic scenes' churn, and short of freezing the cut for good
 /// (the priorities of one cloth span a few orders of magnitude).
 pub const FLICKER_GAIN_MAX: f32 = 64.0;
+
+/// With [`FeedbackSettings::max_ops`] at 0 (the default), the operations one evaluation may
+/// begin, as a fraction of the node budget: a tenth of the cut may be reshaped per evaluation,
+/// at any size, so that the operations' cost stays about the same share of a step (both grow
+/// with the node count) and a large cloth's cut moves as fast, in proportion, as a small one's.
+/// The earlier fixed 64 was the swinging net's number: at 30% of a 65×65 net (1,268 nodes)
+/// the loop never asked for more, and at 30% of a 129×129 net (4,992) it held the cold start
+/// back (on-screen RMS 4.18 px against 3.84 px unbounded, perception scenes `net_129`;
+/// `large_closeup` 3.24 against 3.02). A tenth gives 65 at the 644 nodes of the perception
+/// flag, 127 at 30% of the 65×65 net and 500 at 30% of 129×129.
+pub const AUTO_MAX_OPS_FRACTION: f64 = 0.1;
+
+/// With [`FeedbackSettings::max_ops`] at 0, the operations one evaluation may begin under
+/// [`ClothBudget::MaxErrorPx`]. That mode starts from the finest cut and merges where the
+/// estimate is under the bound, but a merge's error shows only once it has blended and the
+/// coarse node has moved on its own, so it merges at a fixed pace rather than a fraction of
+/// the cut. A tenth of the cut there (423 merges at the first evaluation of a 65×65 net) broke
+/// the bound badly: perception p99 on the off-screen net 2.52 → 55.2 px, close-up 6.05 → 11.2
+/// px, the paper's net 0.63 → 0.82 px.
+pub const ERROR_BOUND_MAX_OPS: usize = 64;
 
 /// The node count a compression (fraction of the full count) allows: rounded, at least 1 (what
 /// [`ClothBudget::Compression`] means).
