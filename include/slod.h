@@ -949,7 +949,8 @@ typedef struct SlodFeedbackDesc {
   /**
    * Most refine/coarse operations begun per evaluation, 0..=1048576; 0 (the default) scales
    * the limit with the cut: a tenth of the node budget at each evaluation (at least one),
-   * 64 under `SLOD_CLOTH_BUDGET_MAX_ERROR_PX`, which merges at a fixed pace.
+   * 64 under `SLOD_CLOTH_BUDGET_MAX_ERROR_PX` and `SLOD_CLOTH_BUDGET_TARGET_STEP_MS`, which
+   * move the cut at a fixed pace.
    */
   uint32_t max_ops;
   /**

@@ -161,12 +161,11 @@ fn operation_limit_scales_with_the_budget() {
     }
     assert_eq!(defaults.ops_per_evaluation(0), 1);
     assert_eq!(defaults.ops_per_evaluation(4992), 500);
-    // The error bound merges at a fixed pace (see `ERROR_BOUND_MAX_OPS`).
-    let bound = FeedbackSettings {
-        budget: ClothBudget::MaxErrorPx(1.0),
-        ..defaults
-    };
-    assert_eq!(bound.ops_per_evaluation(4225), super::ERROR_BOUND_MAX_OPS);
+    // The error bound and the time budget move at a fixed pace (see `PACED_MAX_OPS`).
+    for budget in [ClothBudget::MaxErrorPx(1.0), ClothBudget::TargetStepMs(0.5)] {
+        let paced = FeedbackSettings { budget, ..defaults };
+        assert_eq!(paced.ops_per_evaluation(4225), super::PACED_MAX_OPS);
+    }
 }
 
 /// Bad input gets a clear error and changes nothing.

@@ -155,7 +155,8 @@ pub struct SlodFeedbackDesc {
     pub interval: u32,
     /// Most refine/coarse operations begun per evaluation, 0..=1048576; 0 (the default) scales
     /// the limit with the cut: a tenth of the node budget at each evaluation (at least one),
-    /// 64 under `SLOD_CLOTH_BUDGET_MAX_ERROR_PX`, which merges at a fixed pace.
+    /// 64 under `SLOD_CLOTH_BUDGET_MAX_ERROR_PX` and `SLOD_CLOTH_BUDGET_TARGET_STEP_MS`, which
+    /// move the cut at a fixed pace.
     pub max_ops: u32,
     /// Minimum priority gain for moving detail, as a multiple of the simulated nodes' mean
     /// priority (finite, >= 0; default 1.5): keeps nodes from flickering.

@@ -26,8 +26,8 @@ use memory::Memory;
 pub(crate) use radii::node_radii;
 pub(crate) use settings::ERROR_BOUND_REFINE;
 pub use settings::{
-    AUTO_MAX_OPS_FRACTION, ClothBudget, ERROR_BOUND_MAX_OPS, FLICKER_GAIN_MAX,
-    FLICKER_HALF_LIFE_SECONDS, FeedbackSettings, PriorityModel, compression_nodes,
+    AUTO_MAX_OPS_FRACTION, ClothBudget, FLICKER_GAIN_MAX, FLICKER_HALF_LIFE_SECONDS,
+    FeedbackSettings, PACED_MAX_OPS, PriorityModel, compression_nodes,
 };
 
 /// Whether a node's level changed within the undo window (see [`Feedback::measure`]).
