@@ -73,6 +73,8 @@ pub(crate) struct CostUnitsReport {
     /// Frames.
     pub(crate) frames: usize,
     /// See the millisecond run.
+    pub(crate) reached_target_after_frames: Option<usize>,
+    /// See the millisecond run.
     pub(crate) settled_after_frames: Option<usize>,
     /// See the millisecond run.
     pub(crate) within_10pct_fraction: f64,
@@ -91,6 +93,9 @@ pub(crate) struct WorldSection {
     pub(crate) target_ms: f32,
     /// Frames of the budgeted run.
     pub(crate) frames: u32,
+    /// First frame from which the median of the next 10 frames is within ±10% of the target:
+    /// when the cold start reached it; null if never.
+    pub(crate) reached_target_after_frames: Option<usize>,
     /// First frame within ±10% of the target from which ≥ 95% of frames are, with at least 60
     /// frames (or half the run) to come; null if none.
     pub(crate) settled_after_frames: Option<usize>,
@@ -197,6 +202,7 @@ pub(crate) fn run(plan: &WorldPlan, progress: Progress) -> Result<WorldOutcome, 
     let section = WorldSection {
         target_ms: c.target_ms,
         frames: c.frames,
+        reached_target_after_frames: b.settle.reached_after,
         settled_after_frames: b.settle.settled_after,
         within_10pct_fraction: b.settle.within_fraction,
         p50_ms: b.p50_ms,
@@ -228,6 +234,7 @@ pub(crate) fn run(plan: &WorldPlan, progress: Progress) -> Result<WorldOutcome, 
             target_units: cu.target,
             target_fraction_of_full: cu.target / report.full_detail_units.max(1.0),
             frames: cu.frames.len(),
+            reached_target_after_frames: cu.settle.reached_after,
             settled_after_frames: cu.settle.settled_after,
             within_10pct_fraction: cu.settle.within_fraction,
             p50_units: cu.p50_measured,

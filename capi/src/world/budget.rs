@@ -178,8 +178,9 @@ pub struct WorldBudget {
     /// no cap). A transition costs a step as much as a few dozen simulated nodes while it
     /// blends (the cloth's [`crate::cloth::CostModel::transition`]), so a cut that moves fast
     /// makes frames long exactly when the budget is being met: the cloths due to evaluate in a
-    /// frame share what is left of this allowance (plus what the last frame left unspent) as
-    /// their operation cap.
+    /// frame share what is left of this allowance (plus what the last frame left unspent; under
+    /// a wall-clock millisecond target, its time left converted at what one more cost unit
+    /// costs, fitted over recent frames) as their operation cap.
     pub transition_share: f32,
     /// Most solver steps a cloth takes in one frame when the frame's `dt` is longer than its
     /// own (≥ 1); time beyond it is dropped, so a long frame does not make the next one longer.

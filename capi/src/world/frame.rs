@@ -24,6 +24,7 @@ use super::jobs::{
     ClothJob, CrowdJob, StepCost, apply_cloth_share, full_ratio, run_cloths, run_crowds,
     run_together,
 };
+use super::timefit::TimeFit;
 use super::warm::KeepWarm;
 use crate::cloth::{AdaptiveCloth, FeedbackSettings};
 use animlod::{Crowd, LodMode};
@@ -177,6 +178,9 @@ pub struct FrameBudgeter {
     /// Measured wall milliseconds per cost unit, smoothed over frames (to turn a millisecond
     /// target into units for the transition allowance).
     ms_per_unit: Option<f64>,
+    /// Wall milliseconds against cost units over recent frames (the marginal cost the
+    /// transition allowance converts time left with).
+    time_fit: TimeFit,
     last: WorldStepStats,
     last_objects: Vec<ObjectFrame>,
     /// Spinning workers between phases and frames (`WorldBudget::spin_wait_ms`).
@@ -194,6 +198,7 @@ impl FrameBudgeter {
             objects: BTreeMap::new(),
             frames: 0,
             ms_per_unit: None,
+            time_fit: TimeFit::default(),
             last: WorldStepStats::default(),
             last_objects: Vec::new(),
             warm: KeepWarm::default(),
@@ -577,6 +582,8 @@ impl FrameBudgeter {
         if frame.stats.cost_units > 0.0 {
             let r = frame.stats.wall_ms / frame.stats.cost_units;
             self.ms_per_unit = Some(self.ms_per_unit.map_or(r, |m| m + 0.1 * (r - m)));
+            self.time_fit
+                .add(frame.stats.cost_units, frame.stats.wall_ms);
         }
         if let Some((cost, target)) = measured {
             frame.stats.measured = cost;
@@ -636,8 +643,17 @@ impl FrameBudgeter {
         }
         let shared = |j: &ClothJob<'_>| matches!(j.share, BudgetShare::Shared { .. });
         let in_flight: usize = jobs.iter().map(|j| j.cloth.interpolations()).sum();
-        // Unspent budget is room too: a cut far under its target may move fast.
-        let headroom = (target - self.last.cost_units).max(0.0);
+        // Unspent budget is room too: a cut far under its target may move fast. Under a
+        // wall-clock millisecond target the time left is converted at what one more unit costs
+        // (the fitted slope), not at the average (which a frame's fixed costs inflate).
+        let headroom = match (self.settings.target, self.settings.clock) {
+            (BudgetTarget::Milliseconds(ms), FrameClock::Wall) => self
+                .time_fit
+                .marginal_ms_per_unit()
+                .map_or(0.0, |b| (ms as f64 - self.last.wall_ms) / b),
+            _ => target - self.last.cost_units,
+        }
+        .max(0.0);
         let allowed = (share as f64 * target + headroom) / per_transition;
         let room = (allowed - in_flight as f64).max(0.0);
         let due = jobs

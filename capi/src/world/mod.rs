@@ -21,6 +21,7 @@ pub mod frame;
 mod jobs;
 #[cfg(test)]
 mod tests;
+mod timefit;
 mod warm;
 
 use salience::View;

@@ -67,6 +67,8 @@ fn settle_finds_the_first_frame_that_holds() {
     trace[100] = 1.5;
     let s = settle(&trace, 1.0);
     assert_eq!(s.settled_after, Some(30));
+    // Reached once the median of the next ten frames is within: six of ten at frame 26.
+    assert_eq!(s.reached_after, Some(26));
     assert!((s.within_fraction - 199.0 / 200.0).abs() < 1e-12);
     // A lucky last frame is not settling.
     let mut never = vec![2.0; 200];
