@@ -1,6 +1,6 @@
 //! `report.json`: every figure the demo printed, with its units in the field names (`_ms`,
 //! `_us`, `_px`, `_mm`, `_m`, `_s`, `_fraction`), the papers' figures beside ours, and the
-//! machine it ran on. The README section (demo/README-section.md) documents every field.
+//! machine it ran on. The README (its report.json section) documents every field.
 
 use std::path::Path;
 
