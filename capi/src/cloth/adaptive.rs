@@ -251,9 +251,7 @@ impl AdaptiveCloth {
             // Keep the controller's learned state when only other settings change.
             Some(f) if f.settings.budget == settings.budget => {
                 f.settings = settings;
-                let budget = f.node_budget(self.body.hierarchy().vertex_count());
-                f.evaluator
-                    .set_settings(settings.evaluator_settings(budget));
+                f.sync_evaluator(self.body.hierarchy().vertex_count());
             }
             _ => {
                 let h = self.body.hierarchy();
@@ -284,9 +282,7 @@ impl AdaptiveCloth {
                 };
                 settings.validate()?;
                 f.settings = settings;
-                let budget = f.node_budget(self.body.hierarchy().vertex_count());
-                f.evaluator
-                    .set_settings(settings.evaluator_settings(budget));
+                f.sync_evaluator(self.body.hierarchy().vertex_count());
                 Ok(())
             }
             f => {
@@ -445,8 +441,7 @@ impl AdaptiveCloth {
         let h = self.body.hierarchy_arc().clone();
         let budget = f.node_budget(h.vertex_count());
         // The operation limit follows the budget (see `FeedbackSettings::ops_per_evaluation`).
-        f.evaluator
-            .set_settings(f.settings.evaluator_settings(budget));
+        let mut e = f.settings.evaluator_settings(budget);
         if !matches!(
             f.settings.budget,
             super::feedback::ClothBudget::MaxErrorPx(_)
@@ -460,7 +455,6 @@ impl AdaptiveCloth {
                 .map(|n| f.priorities[n.index()] as f64)
                 .sum::<f64>()
                 / active.len().max(1) as f64;
-            let mut e = f.settings.evaluator_settings(budget);
             let flicker = f.flicker_gain(
                 self.stats.refines + self.stats.coarses,
                 self.stats.undone_ops,
@@ -510,8 +504,8 @@ impl AdaptiveCloth {
                     }
                 }
             }
-            f.evaluator.set_settings(e);
         }
+        f.evaluator.set_settings(e);
         self.contact.forget();
         // The evaluator knows what beginning each operation locks (transitions lock their
         // neighbourhoods), so every operation of the batch begins, in the order given, and the

@@ -186,6 +186,14 @@ impl Feedback {
         }
     }
 
+    /// Gives the evaluator the settings [`Feedback::settings`] imply at the node budget now
+    /// (a cloth of `full_nodes` finest nodes); an evaluation refines them further.
+    pub(crate) fn sync_evaluator(&mut self, full_nodes: usize) {
+        let budget = self.node_budget(full_nodes);
+        self.evaluator
+            .set_settings(self.settings.evaluator_settings(budget));
+    }
+
     /// The node count the cut is heading to: under [`ClothBudget::MaxErrorPx`] the projection
     /// of the last measurement (see `error_priorities`), otherwise the node budget.
     pub(crate) fn projected_nodes(&self, full_nodes: usize) -> usize {
