@@ -338,6 +338,27 @@ fn odd_grids_have_no_single_child_and_levels_partition() {
     }
 }
 
+/// Both ends of an odd side are pairs (its group of three sits in the middle; a side of 3 or 5
+/// cannot), so the two free edges of a square cloth are reconstructed alike: the nodes above
+/// the corner leaves cover 2 × 2 vertices at all four corners, where the group of three at the
+/// end gave one edge's nodes a centroid a whole spacing in from it (half a spacing at the other).
+#[test]
+fn odd_grids_keep_pairs_at_both_edges() {
+    for side in [7u32, 9, 17, 33, 65, 129] {
+        let spec = GridSpec::horizontal(side, side, 1.0, 1.0);
+        let h = Hierarchy::grid(&spec).unwrap();
+        let s = side - 1;
+        for (i, j) in [(0, 0), (s, 0), (0, s), (s, s)] {
+            let n = h.ancestor_at_level(h.leaf_of_vertex(spec.vertex(i, j)), 1);
+            assert_eq!(h.vertices(n).len(), 4, "side {side}, corner ({i}, {j})");
+            let centroid = (spec.position(i.min(s - 1), j.min(s - 1))
+                + spec.position(i.max(1), j.max(1)))
+                * 0.5;
+            assert!(h.rest_position(n).distance(centroid) < 1e-4);
+        }
+    }
+}
+
 #[test]
 fn from_nodes_checks_coverage() {
     let h = Hierarchy::grid(&GridSpec::horizontal(5, 5, 1.0, 1.0)).unwrap();

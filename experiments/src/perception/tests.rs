@@ -372,10 +372,12 @@ fn irregular_mesh_builds_like_from_mesh() {
 
 /// Keeping the rim fine pays: on the net and the dolly-and-orbit scene at their full 65²
 /// (the first 120 steps: the fall and the first swing), the default loop (rim weight 3) beats
-/// the same loop without the rim term at equal nodes in on-screen RMS (values in the assertion
-/// message; over 200 steps the net goes 1.77 → 0.89 px and the dolly 2.25 → 0.81). At 17²
-/// the two tie (7.95 / 7.97 px): a rim band at the finest level would take more than the 30%
-/// budget there.
+/// the same loop without the rim term at equal nodes in on-screen RMS and p99 (values in the
+/// assertion message). It paid far more while the grid hierarchy put an odd side's group of
+/// three at one end (the rim term was then also making up for that edge's inset nodes): over
+/// 200 steps the net went 1.82 → 0.86 px and the dolly 2.29 → 0.82; with the three in the
+/// middle 1.03 → 0.94 and 1.13 → 0.94. At 17² the two tie: a rim band at the finest level
+/// would take more than the 30% budget there.
 #[test]
 fn rim_weight_pays_at_equal_nodes() {
     for mut scene in [
@@ -395,8 +397,10 @@ fn rim_weight_pays_at_equal_nodes() {
             (blind.nodes - fb.nodes).abs() < 0.05 * fb.nodes,
             "{summary}"
         );
-        // Measured: net 1.15 px against 1.96, dolly 1.15 against 2.40.
-        assert!(fb.screen.rms_px < 0.75 * blind.screen.rms_px, "{summary}");
+        // Measured: net 1.07 px against 1.14 (p99 4.03 against 4.36), dolly 1.18 against 1.35
+        // (4.59 against 5.59).
+        assert!(fb.screen.rms_px < 0.95 * blind.screen.rms_px, "{summary}");
+        assert!(fb.screen.p99_px < 0.95 * blind.screen.p99_px, "{summary}");
     }
 }
 

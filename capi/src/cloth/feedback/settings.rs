@@ -131,6 +131,15 @@ pub struct FeedbackSettings {
     /// tried but costs the chaotic scenes 35–45% (flag 19.9, curtain 13.3 px), so 3 it is. A
     /// ratio of terms, so it does not depend on the scene's size or units; the perception
     /// experiment's `rim_blind` runs measure it on every scene.
+    ///
+    /// Those figures were measured on grid hierarchies whose odd sides ended in a group of
+    /// three, so one free edge's coarse nodes sat a whole spacing inside it; part of what the
+    /// rim term bought was making up for that edge. With the three in the middle
+    /// ([`treecut::Hierarchy::grid`]) the loop without the term improves most (net 1.82 →
+    /// 1.03, dolly 2.29 → 1.13, off-screen 4.05 → 2.28 px) and the term's gain shrinks to
+    /// 5–20% on the held sheets (net 0.94, dolly 0.94, off-screen 2.09, close-up 3.08 against
+    /// 3.64 px), none on net_129 (3.95 against 3.75) and the curtain; weights 1 and 2 measured
+    /// worse than 3 on six of eight scenes, so 3 stays.
     pub rim_weight: f32,
     /// Flicker control: the fraction of operations the loop lets be undone within the undo
     /// window (`UNDO_WINDOW_STEPS`, 30 steps: a refine of a node merged that recently, or the
