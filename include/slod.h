@@ -223,7 +223,10 @@ enum SlodClothBudget
   /**
    * `budget_value` is an on-screen error bound in pixels of the world's view (> 0, <= 1e6):
    * the loop spends the fewest nodes that keep each node's estimated on-screen deviation
-   * under it (the crowd's `SLOD_LOD_MODE_ERROR_BOUND` means the same).
+   * under it (the crowd's `SLOD_LOD_MODE_ERROR_BOUND` means the same). Deviation outside the
+   * view counts as seen while any of the cloth is in view (it reaches the screen through the
+   * cloth's motion), unless a world budget moves the bound; the BSWDF's
+   * `outside_view_weight` weighs it otherwise.
    */
   SLOD_CLOTH_BUDGET_MAX_ERROR_PX = 3,
 };

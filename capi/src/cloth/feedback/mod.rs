@@ -404,6 +404,11 @@ impl Feedback {
             node_radius,
             view,
             outside_weight: self.settings.params.outside_view_weight,
+            // A bound the host set is a promise about what a viewer sees; a bound a world
+            // moves is its exchange rate between error and cost across objects, which spends
+            // on what is seen (see the `deviation` module).
+            outside_as_seen: matches!(self.settings.budget, ClothBudget::MaxErrorPx(_))
+                && !self.shared_bound,
         };
         run(self, body, &frame);
         self.positions = positions;

@@ -28,6 +28,9 @@ pub enum ClothBudget {
     /// wait one memory period), instead of refining out of a coarse start while the error
     /// shows. The same meaning as the crowd's
     /// `LodMode::ErrorBound`: pixels a viewer could see, so a farther camera needs fewer nodes.
+    /// Error outside the view counts as seen while any of the cloth is in view (it reaches the
+    /// screen through the cloth's dynamics; the `deviation` module says how), unless a world
+    /// moves the bound; the BSWDF's `outside_view_weight` weighs it otherwise.
     /// The bound is on the estimate; the error measured against a full-resolution reference is
     /// reported by the experiments.
     MaxErrorPx(f32),
