@@ -35,11 +35,12 @@ pub(crate) struct SceneRecord {
     pub(crate) budget_nodes: usize,
     pub(crate) steps: u32,
     pub(crate) twin_floor_px: Floor,
+    pub(crate) solver_floor_px: Floor,
     pub(crate) runs: Vec<RunRecord>,
     pub(crate) uniform_curve: Vec<CurvePoint>,
 }
 
-/// The twin floor.
+/// A floor (the twin floor, the solver floor): on-screen RMS and maximum, px.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub(crate) struct Floor {
     pub(crate) rms: f64,
@@ -138,6 +139,10 @@ pub(crate) fn section(
                 twin_floor_px: Floor {
                     rms: o.twin_floor.rms_px,
                     max: o.twin_floor.max_px,
+                },
+                solver_floor_px: Floor {
+                    rms: o.solver_floor.rms_px,
+                    max: o.solver_floor.max_px,
                 },
                 runs: o.runs.iter().map(run).collect(),
                 uniform_curve: o

@@ -498,6 +498,40 @@ pub fn twin_floor(scene: &Scene, reference: &Reference) -> Result<ScreenError, C
     perturbed_twin(scene, reference, TWIN_PERTURBATION_M)
 }
 
+/// How many times the scene's substeps [`solver_floor`] runs its comparison with.
+pub const SOLVER_FLOOR_SUBSTEPS_FACTOR: u32 = 2;
+
+/// The solver floor: the reference (the scene's solver settings) measured against the same
+/// full-resolution cloth with [`SOLVER_FLOOR_SUBSTEPS_FACTOR`] times the substeps, whole run.
+/// It is (a lower estimate of) the error the solver's own convergence makes at full
+/// resolution, which every reduced cut inherits: where a strategy's error is near it or below
+/// it, comparisons between strategies measure which cut happens to match the unconverged
+/// reference as much as level of detail. Twice, not more: single-precision positions lose a
+/// substep's corrections to rounding when there are very many (the paper's net against itself
+/// at 256 substeps differs by 10–11 px RMS from 32, 64 and 128 alike, while 32 → 64 → 128
+/// differ by 2.3 and 1.9 px). On a chaotic scene it includes the divergence of any two runs,
+/// as the twin floor does.
+pub fn solver_floor(scene: &Scene, reference: &Reference) -> Result<ScreenError, ClothError> {
+    let mut converged = scene.clone();
+    converged.body.solver.substeps = scene
+        .body
+        .solver
+        .substeps
+        .saturating_mul(SOLVER_FLOOR_SUBSTEPS_FACTOR);
+    let mut cloth = converged.cloth(Strategy::Reference.initial_cut(scene, usize::MAX)?)?;
+    let mut meter = ScreenMeter::new(scene.view(0)?);
+    let mut vertices = vec![Vec3::ZERO; reference.vertex_count];
+    for step in 0..scene.steps {
+        converged.drive(&mut cloth, step)?;
+        let view = scene.view(step)?;
+        cloth.step(&view)?;
+        finest_state(&cloth, &mut vertices, None);
+        meter.set_view(view);
+        meter.frame(reference.frame(step), &vertices);
+    }
+    Ok(meter.finish())
+}
+
 /// The reference perturbed by `metres` (every free particle, in a seeded random direction),
 /// measured against `reference`. With 0 it is the reference again: a deterministic simulation
 /// gives exactly zero.

@@ -25,8 +25,8 @@ use slod::cloth::{ClothError, compression_nodes};
 
 pub use equal::{CostPoint, uniform_cost_at};
 pub use measures::{
-    Reference, Run, RunResult, RunSpec, SplitError, TWIN_PERTURBATION_M, perturbed_twin,
-    record_reference, run_strategy, twin_floor,
+    Reference, Run, RunResult, RunSpec, SOLVER_FLOOR_SUBSTEPS_FACTOR, SplitError,
+    TWIN_PERTURBATION_M, perturbed_twin, record_reference, run_strategy, solver_floor, twin_floor,
 };
 pub use scenes::{FOV_Y_DEG, MEASURE_HEIGHT_PX, MEASURE_WIDTH_PX, Scene, SceneScale};
 pub use strategies::Strategy;
@@ -126,6 +126,9 @@ pub struct SceneOutcome {
     pub steps: u32,
     /// The twin floor: the reference perturbed by 1 µm against the reference.
     pub twin_floor: ScreenError,
+    /// The solver floor: the reference against the same cloth with twice the substeps
+    /// ([`solver_floor`]).
+    pub solver_floor: ScreenError,
     /// Every run: the reference, each strategy over the whole run, and on chaotic scenes each
     /// strategy over short horizons.
     pub runs: Vec<RunResult>,
@@ -219,6 +222,7 @@ pub fn run_scene(
         interleaved(scene, &reference, &jobs, progress)?
     };
     let twin = twin_floor(scene, &reference)?;
+    let solver = solver_floor(scene, &reference)?;
     progress(scene.name, total, total);
     let mut curve = Vec::new();
     let mut runs = vec![reference_run];
@@ -267,6 +271,7 @@ pub fn run_scene(
         budget_nodes: budget,
         steps: scene.steps,
         twin_floor: twin,
+        solver_floor: solver,
         runs,
         uniform_curve,
         equal_error,

@@ -140,6 +140,21 @@ fn twin_floor_is_small_but_not_zero() {
     );
 }
 
+/// The solver floor is the full-resolution solver's own error, so it shrinks as the solver
+/// converges: on the small net, the reference at the default substeps against itself at twice
+/// as many, and the same from half the default (values in the message).
+#[test]
+fn solver_floor_shrinks_as_the_solver_converges() {
+    let net = scenes::net(SceneScale::Small).unwrap();
+    let floor = solver_floor(&net, &record_reference(&net, None).unwrap()).unwrap();
+    let mut coarser = net.clone();
+    coarser.body.solver.substeps /= 2;
+    let coarser_floor = solver_floor(&coarser, &record_reference(&coarser, None).unwrap()).unwrap();
+    let summary = format!("{floor:?} at the default, {coarser_floor:?} at half its substeps");
+    assert!(floor.rms_px > 0.0, "{summary}");
+    assert!(floor.rms_px < 0.8 * coarser_floor.rms_px, "{summary}");
+}
+
 /// On the chaotic flag, restarting from the reference every 30 steps measures less error than
 /// letting the runs drift apart (17-wide flag, 150 steps: feedback rms 25.8 px over horizons
 /// against 52.0 px over the whole run, uniform 24.1 against 52.9).
