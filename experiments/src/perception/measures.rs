@@ -518,16 +518,40 @@ pub fn solver_floor(scene: &Scene, reference: &Reference) -> Result<ScreenError,
         .solver
         .substeps
         .saturating_mul(SOLVER_FLOOR_SUBSTEPS_FACTOR);
-    let mut cloth = converged.cloth(Strategy::Reference.initial_cut(scene, usize::MAX)?)?;
+    let cloth = converged.cloth(Strategy::Reference.initial_cut(scene, usize::MAX)?)?;
+    full_resolution_run(&converged, cloth, reference, Truth::Run)
+}
+
+/// Which side of a [`full_resolution_run`] stands for the truth: its vertices in view are the
+/// ones measured, and the other side's are measured against them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Truth {
+    /// The recorded reference (the twin floor: a perturbed copy against it).
+    Reference,
+    /// The run stepped here (the solver floor: the reference against a more converged run).
+    Run,
+}
+
+/// Steps `cloth` (full resolution) through `scene` and measures its finest vertices and the
+/// reference's frame by frame on screen, `truth` saying which of the two is measured against.
+fn full_resolution_run(
+    scene: &Scene,
+    mut cloth: AdaptiveCloth,
+    reference: &Reference,
+    truth: Truth,
+) -> Result<ScreenError, ClothError> {
     let mut meter = ScreenMeter::new(scene.view(0)?);
     let mut vertices = vec![Vec3::ZERO; reference.vertex_count];
     for step in 0..scene.steps {
-        converged.drive(&mut cloth, step)?;
+        scene.drive(&mut cloth, step)?;
         let view = scene.view(step)?;
         cloth.step(&view)?;
         finest_state(&cloth, &mut vertices, None);
         meter.set_view(view);
-        meter.frame(reference.frame(step), &vertices);
+        match truth {
+            Truth::Reference => meter.frame(&vertices, reference.frame(step)),
+            Truth::Run => meter.frame(reference.frame(step), &vertices),
+        }
     }
     Ok(meter.finish())
 }
@@ -561,15 +585,5 @@ pub fn perturbed_twin(
             .body_mut()
             .set_particle_position(ParticleId::new(i), p.truncate() + d * metres)?;
     }
-    let mut meter = ScreenMeter::new(scene.view(0)?);
-    let mut vertices = vec![Vec3::ZERO; reference.vertex_count];
-    for step in 0..scene.steps {
-        scene.drive(&mut cloth, step)?;
-        let view = scene.view(step)?;
-        cloth.step(&view)?;
-        finest_state(&cloth, &mut vertices, None);
-        meter.set_view(view);
-        meter.frame(&vertices, reference.frame(step));
-    }
-    Ok(meter.finish())
+    full_resolution_run(scene, cloth, reference, Truth::Reference)
 }
