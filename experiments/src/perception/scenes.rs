@@ -1,7 +1,9 @@
 //! The scene families the perception experiment runs every strategy on, each a function the
 //! demo and the tests call: the paper's swinging net, a large cloth seen close to one corner, a
 //! cloth partly off-screen, a camera that dollies in and orbits, a flag in gusty wind, a curtain
-//! whose anchors move, a cloth from an irregular triangle mesh, and the net at 129².
+//! whose anchors move, a cloth from an irregular triangle mesh, and the net at 129² ([`all`]);
+//! and six families no default was chosen on, to check that the defaults carry over
+//! ([`held_out`]).
 //!
 //! Every scene has its own [`View`] per frame ([`Scene::view`]): a 1920 × 1080 viewport with a
 //! 50° vertical field of view ([`MEASURE_WIDTH_PX`], [`MEASURE_HEIGHT_PX`], [`FOV_Y_DEG`]), the
@@ -94,6 +96,18 @@ pub enum Camera {
         /// Angle turned over the run.
         sweep_rad: f32,
     },
+    /// A camera that moves in a straight line from `from_eye` to `to_eye` while what it looks
+    /// at moves from `from_target` to `to_target`, linearly over the run (a tracking shot).
+    Track {
+        /// Eye position at the first frame.
+        from_eye: Vec3,
+        /// Eye position at the last frame.
+        to_eye: Vec3,
+        /// Point looked at in the first frame.
+        from_target: Vec3,
+        /// Point looked at in the last frame.
+        to_target: Vec3,
+    },
 }
 
 /// What moves the cloth besides gravity, applied before each step by [`Scene::drive`].
@@ -183,6 +197,15 @@ impl Scene {
                 let a = from_angle_rad + sweep_rad * t;
                 (target + Vec3::new(d * a.sin(), height, d * a.cos()), target)
             }
+            Camera::Track {
+                from_eye,
+                to_eye,
+                from_target,
+                to_target,
+            } => {
+                let t = step as f32 / self.steps.max(2).saturating_sub(1) as f32;
+                (from_eye.lerp(to_eye, t), from_target.lerp(to_target, t))
+            }
         };
         Ok(View::look_at(
             eye,
@@ -242,6 +265,117 @@ pub fn all(scale: SceneScale) -> Result<Vec<Scene>, ClothError> {
         irregular_mesh(scale)?,
         net_129(scale)?,
     ])
+}
+
+/// Scene families that no default of the feedback loop was chosen on, for checking that the
+/// defaults carry over (the project is judged on scenes it does not see): the net from three
+/// times farther away, the net seen nearly edge-on, a camera tracking low along a large cloth, a
+/// cloth held by two adjacent corners, a cloth hinged along one edge, and a rectangular cloth
+/// whose sides are not `2^k + 1`. Same views, measures and strategies as [`all`].
+pub fn held_out(scale: SceneScale) -> Result<Vec<Scene>, ClothError> {
+    let c = crate::net::NetConfig::paper()?;
+    let side = scale.side(c.size);
+    let far = pinned_square(
+        "far_net",
+        side,
+        c.width,
+        c.mass,
+        scale,
+        Camera::Fixed {
+            eye: Vec3::new(0.0, 1.8, 9.6),
+            target: Vec3::new(0.0, -0.5, 0.0),
+        },
+        true,
+    )?;
+    let grazing = pinned_square(
+        "grazing",
+        side,
+        c.width,
+        c.mass,
+        scale,
+        Camera::Fixed {
+            eye: Vec3::new(0.3, -0.25, 3.5),
+            target: Vec3::new(0.0, -0.5, 0.0),
+        },
+        true,
+    )?;
+    // Low over a 4 m cloth, from above one corner to above the opposite one: what is in view,
+    // and near, changes all through the run.
+    let track = pinned_square(
+        "track",
+        scale.side(129),
+        4.0,
+        4.0,
+        scale,
+        Camera::Track {
+            from_eye: Vec3::new(-2.2, 0.5, 2.6),
+            to_eye: Vec3::new(2.2, 0.5, 2.6),
+            from_target: Vec3::new(-1.4, -0.6, 1.0),
+            to_target: Vec3::new(1.4, -0.6, 1.0),
+        },
+        true,
+    )?;
+    let two = scale.side(49);
+    let two_pin = held_grid(
+        "two_pin",
+        GridSpec::horizontal(two, two, 1.5 / (two - 1) as f32, 0.6),
+        &[(0, 0), (two - 1, 0)],
+        scale,
+        Camera::Fixed {
+            eye: Vec3::new(0.0, 0.2, 3.2),
+            target: Vec3::new(0.0, -0.8, 0.0),
+        },
+    )?;
+    let (hc, hr) = (scale.side(49), scale.side(33));
+    let hinge: Vec<(u32, u32)> = (0..hr).map(|j| (0, j)).collect();
+    let hinged = held_grid(
+        "hinged",
+        GridSpec::horizontal(hc, hr, 1.2 / (hc - 1) as f32, 0.4),
+        &hinge,
+        scale,
+        Camera::Fixed {
+            eye: Vec3::new(0.6, 0.0, 3.0),
+            target: Vec3::new(0.6, -0.6, 0.0),
+        },
+    )?;
+    let (rc, rr) = (scale.side(97), scale.side(49));
+    let rect = held_grid(
+        "rect",
+        GridSpec::horizontal(rc, rr, 3.0 / (rc - 1) as f32, 1.5),
+        &[(0, 0), (rc - 1, 0), (0, rr - 1), (rc - 1, rr - 1)],
+        scale,
+        Camera::Fixed {
+            eye: Vec3::new(0.0, 0.8, 4.5),
+            target: Vec3::new(0.0, -0.6, 0.0),
+        },
+    )?;
+    Ok(vec![far, grazing, track, two_pin, hinged, rect])
+}
+
+/// A horizontal grid cloth held at `pins` (grid coordinates), gravity only, seen by `camera`.
+fn held_grid(
+    name: &'static str,
+    spec: GridSpec,
+    pins: &[(u32, u32)],
+    scale: SceneScale,
+    camera: Camera,
+) -> Result<Scene, ClothError> {
+    let h = Arc::new(Hierarchy::grid(&spec)?);
+    Ok(Scene {
+        name,
+        view_dependent: false,
+        chaotic: false,
+        hierarchy: h,
+        rest_normal: spec.u.cross(spec.v),
+        body: TreeCutSettings::default(),
+        pins: pins
+            .iter()
+            .map(|&(i, j)| (spec.vertex(i, j), spec.position(i, j)))
+            .collect(),
+        steps: scale.steps(),
+        camera,
+        driver: Driver::Still,
+    })
 }
 
 /// A horizontal square cloth of `side` vertices, `width` metres, `mass` kg, corners pinned.
