@@ -5,7 +5,10 @@
 //! the per-vertex distance in pixels is the error a viewer could see. A run reports the mean of
 //! the per-frame RMS, the 99th percentile over all vertex-frames and the maximum, and the
 //! largest *pop*: the largest frame-to-frame change of one vertex's on-screen error vector, so a
-//! refine or an end-coarse that jumps shows even when the averages are small.
+//! refine or an end-coarse that jumps shows even when the averages are small. Told which
+//! vertices changed the node that simulates them that frame ([`ScreenMeter::frame_changed`]),
+//! it splits the pops into those operations caused and the rest: the error vector's own change
+//! from frame to frame, a reduced cloth moving a little faster or slower than the reference.
 
 use glam::{Vec2, Vec3};
 use salience::View;
@@ -21,6 +24,13 @@ pub struct ScreenError {
     pub max_px: f64,
     /// Largest frame-to-frame change of one vertex's on-screen error vector.
     pub pop_max_px: f64,
+    /// [`ScreenError::pop_max_px`] over the vertex-frames where the node simulating the vertex
+    /// changed (a refine began or a coarse ended there): the jumps level-of-detail operations
+    /// make. 0 when the meter was never told ([`ScreenMeter::frame_changed`]).
+    pub pop_operation_max_px: f64,
+    /// [`ScreenError::pop_max_px`] over every other vertex-frame: the error drifting from one
+    /// frame to the next (all pops when the meter was never told which vertices changed).
+    pub pop_drift_max_px: f64,
 }
 
 /// Accumulates [`ScreenError`] frame by frame.
@@ -31,7 +41,8 @@ pub struct ScreenMeter {
     rms_sum: f64,
     samples: Vec<f32>,
     max: f32,
-    pop_max: f32,
+    pop_operation: f32,
+    pop_drift: f32,
     previous: Vec<Option<Vec2>>,
 }
 
@@ -44,7 +55,8 @@ impl ScreenMeter {
             rms_sum: 0.0,
             samples: Vec::new(),
             max: 0.0,
-            pop_max: 0.0,
+            pop_operation: 0.0,
+            pop_drift: 0.0,
             previous: Vec::new(),
         }
     }
@@ -68,7 +80,15 @@ impl ScreenMeter {
 
     /// Adds one frame: `reconstructed[i]` against `reference[i]` (same length).
     pub fn frame(&mut self, reconstructed: &[Vec3], reference: &[Vec3]) {
-        self.add(reconstructed, reference, |_| true);
+        self.add(reconstructed, reference, |_| true, |_| false);
+    }
+
+    /// [`ScreenMeter::frame`], told which vertices changed the node that simulates them since
+    /// the previous frame (`changed`, same length): their pops count as the operations'
+    /// ([`ScreenError::pop_operation_max_px`]), the others' as drift.
+    pub fn frame_changed(&mut self, reconstructed: &[Vec3], reference: &[Vec3], changed: &[bool]) {
+        assert_eq!(changed.len(), reference.len(), "one flag per vertex");
+        self.add(reconstructed, reference, |_| true, |i| changed[i]);
     }
 
     /// [`ScreenMeter::frame`] over the vertices `counted` marks only (same length): the error
@@ -76,10 +96,16 @@ impl ScreenMeter {
     /// this frame counts no pop the next.
     pub fn frame_masked(&mut self, reconstructed: &[Vec3], reference: &[Vec3], counted: &[bool]) {
         assert_eq!(counted.len(), reference.len(), "one flag per vertex");
-        self.add(reconstructed, reference, |i| counted[i]);
+        self.add(reconstructed, reference, |i| counted[i], |_| false);
     }
 
-    fn add(&mut self, reconstructed: &[Vec3], reference: &[Vec3], counted: impl Fn(usize) -> bool) {
+    fn add(
+        &mut self,
+        reconstructed: &[Vec3],
+        reference: &[Vec3],
+        counted: impl Fn(usize) -> bool,
+        changed: impl Fn(usize) -> bool,
+    ) {
         assert_eq!(
             reconstructed.len(),
             reference.len(),
@@ -94,7 +120,12 @@ impl ScreenMeter {
                 None
             };
             if let (Some(e), Some(p)) = (error, self.previous[i]) {
-                self.pop_max = self.pop_max.max((e - p).length());
+                let pop = if changed(i) {
+                    &mut self.pop_operation
+                } else {
+                    &mut self.pop_drift
+                };
+                *pop = pop.max((e - p).length());
             }
             self.previous[i] = error;
             if let Some(e) = error {
@@ -141,7 +172,9 @@ impl ScreenMeter {
             },
             p99_px: p99 as f64,
             max_px: self.max as f64,
-            pop_max_px: self.pop_max as f64,
+            pop_max_px: self.pop_operation.max(self.pop_drift) as f64,
+            pop_operation_max_px: self.pop_operation as f64,
+            pop_drift_max_px: self.pop_drift as f64,
         }
     }
 }
@@ -196,6 +229,27 @@ mod tests {
         m.frame(&reference, &reference); // the offset vanishes at once
         let jumped = m.finish();
         assert!((jumped.pop_max_px - calm.max_px).abs() < 1e-3, "{jumped:?}");
+        assert_eq!(jumped.pop_operation_max_px, 0.0);
+        assert_eq!(jumped.pop_drift_max_px, jumped.pop_max_px);
+    }
+
+    /// Told which vertices changed their node, the meter files their pops as the operations'
+    /// and the others' as drift; the overall pop is the larger.
+    #[test]
+    fn pops_split_between_operations_and_drift() {
+        let reference = vec![Vec3::ZERO; 2];
+        let v = view();
+        let px = v.pixels_per_unit(Vec3::ZERO);
+        let mut m = ScreenMeter::new(v);
+        m.frame_changed(&reference, &reference, &[false, false]);
+        // Vertex 0 jumps 2 cm as its node changes; vertex 1 drifts 1 cm.
+        let next = vec![Vec3::Y * 0.02, Vec3::X * 0.01];
+        m.frame_changed(&next, &reference, &[true, false]);
+        let e = m.finish();
+        let close = |a: f64, b: f32| (a - b as f64).abs() < 0.02 * b as f64;
+        assert!(close(e.pop_operation_max_px, 0.02 * px), "{e:?}");
+        assert!(close(e.pop_drift_max_px, 0.01 * px), "{e:?}");
+        assert_eq!(e.pop_max_px, e.pop_operation_max_px);
     }
 
     #[test]

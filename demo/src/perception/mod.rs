@@ -205,7 +205,7 @@ fn render_runs(outcomes: &[SceneOutcome], config: &PerceptionConfig) -> String {
                 "p99 px",
                 "max px",
                 "coarse / fine p99",
-                "pop px",
+                "pop px (ops / drift)",
                 "undone",
             ],
         );
@@ -227,7 +227,12 @@ fn render_runs(outcomes: &[SceneOutcome], config: &PerceptionConfig) -> String {
                 r.screen_split.map_or("-".to_string(), |s| {
                     format!("{} / {}", num(s.coarse.p99_px, 2), num(s.fine.p99_px, 2))
                 }),
-                num(r.screen.pop_max_px, 2),
+                format!(
+                    "{} ({} / {})",
+                    num(r.screen.pop_max_px, 2),
+                    num(r.screen.pop_operation_max_px, 2),
+                    num(r.screen.pop_drift_max_px, 2)
+                ),
                 r.undone_fraction().map_or("-".to_string(), |u| pct(u, 1)),
             ]);
         }
@@ -238,7 +243,9 @@ fn render_runs(outcomes: &[SceneOutcome], config: &PerceptionConfig) -> String {
              runs of the scene interleaved, {} steps of each in turn; reconstruct: its share; \
              coarse / fine p99: at the vertices coarse nodes cover (the error a node's deviation \
              estimate is about) and at those simulated at the finest level (the drift the coarse \
-             parts' dynamics carry across the cloth)",
+             parts' dynamics carry across the cloth); pop: the largest frame-to-frame change of a \
+             vertex's error, at vertices whose simulating node changed that frame (ops: a refine \
+             begun, a coarse ended) and elsewhere (drift)",
             num(o.twin_floor.rms_px, 3),
             num(o.twin_floor.max_px, 3),
             slod_experiments::perception::SOLVER_FLOOR_SUBSTEPS_FACTOR,

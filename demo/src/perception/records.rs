@@ -59,6 +59,11 @@ pub(crate) struct RunRecord {
     pub(crate) screen_p99_px: f64,
     pub(crate) screen_max_px: f64,
     pub(crate) pop_max_px: Option<f64>,
+    /// The largest pop at a vertex whose simulating node changed that frame (a refine begun,
+    /// a coarse ended), and the largest elsewhere (the error drifting between frames); null
+    /// for the reference.
+    pub(crate) pop_operation_max_px: Option<f64>,
+    pub(crate) pop_drift_max_px: Option<f64>,
     /// p99 and max at the vertices coarse nodes cover (null for the reference): the error the
     /// on-screen deviation estimate is about.
     pub(crate) coarse_p99_px: Option<f64>,
@@ -105,6 +110,8 @@ fn run(r: &RunResult) -> RunRecord {
         screen_p99_px: r.screen.p99_px,
         screen_max_px: r.screen.max_px,
         pop_max_px: (!is_reference).then_some(r.screen.pop_max_px),
+        pop_operation_max_px: (!is_reference).then_some(r.screen.pop_operation_max_px),
+        pop_drift_max_px: (!is_reference).then_some(r.screen.pop_drift_max_px),
         coarse_p99_px: r.screen_split.map(|s| s.coarse.p99_px),
         coarse_max_px: r.screen_split.map(|s| s.coarse.max_px),
         fine_p99_px: r.screen_split.map(|s| s.fine.p99_px),

@@ -240,6 +240,18 @@ fn record_reference_here(scene: &Scene, horizon: Option<u32>) -> Result<Referenc
 }
 
 /// Marks in `out` (one flag per finest vertex) the vertices a coarse node covers now.
+/// The node simulating each finest vertex (`out[v]`: its raw id): the pops of a vertex whose
+/// node changed are the level-of-detail operations' (a refine begun, a coarse ended).
+fn simulating_nodes(cloth: &AdaptiveCloth, out: &mut [u32]) {
+    let body = cloth.body();
+    let h = body.hierarchy();
+    for &node in body.particle_nodes() {
+        for &v in h.vertices(node) {
+            out[v as usize] = node.raw();
+        }
+    }
+}
+
 fn mark_coarse(cloth: &AdaptiveCloth, out: &mut [bool]) {
     out.fill(false);
     let body = cloth.body();
@@ -353,7 +365,15 @@ struct Meters {
     fine: ScreenMeter,
     /// Scratch: which vertices a coarse node covers this frame.
     covered: Vec<bool>,
+    /// The node simulating each vertex this frame, and the last ([`NO_NODE`] before the first).
+    node_of: Vec<u32>,
+    previous_node_of: Vec<u32>,
+    /// Scratch: which vertices changed their simulating node this frame.
+    changed: Vec<bool>,
 }
+
+/// [`Meters::node_of`] before any frame.
+const NO_NODE: u32 = u32::MAX;
 
 /// One run in progress, advanced a step at a time, so that [`super::run_scene`] can interleave
 /// the runs of a scene ([`super::INTERLEAVE_STEPS`] steps of each in turn): every strategy then
@@ -397,6 +417,9 @@ impl<'a> Run<'a> {
                 fine: whole.clone(),
                 whole,
                 covered: vec![false; reference.vertex_count],
+                node_of: vec![NO_NODE; reference.vertex_count],
+                previous_node_of: vec![NO_NODE; reference.vertex_count],
+                changed: vec![false; reference.vertex_count],
             })
         };
         Ok(Run {
@@ -450,7 +473,17 @@ impl<'a> Run<'a> {
         self.reconstruct_s += t.elapsed().as_secs_f64();
         let reference = self.reference.frame(step);
         m.whole.set_view(view);
-        m.whole.frame(vertices, reference);
+        std::mem::swap(&mut m.node_of, &mut m.previous_node_of);
+        simulating_nodes(cloth, &mut m.node_of);
+        for ((c, &now), &before) in m
+            .changed
+            .iter_mut()
+            .zip(&m.node_of)
+            .zip(&m.previous_node_of)
+        {
+            *c = before != NO_NODE && now != before;
+        }
+        m.whole.frame_changed(vertices, reference, &m.changed);
         mark_coarse(cloth, &mut m.covered);
         m.coarse.set_view(view);
         m.coarse.frame_masked(vertices, reference, &m.covered);

@@ -48,6 +48,21 @@ fn feedback_beats_uniform_and_random_on_screen_at_equal_nodes() {
                 "{summary}"
             );
         }
+        // Pops: a static cut never changes which node simulates a vertex, so all its pops are
+        // drift; the loop's operations make some of its own.
+        for r in [&uniform, &random] {
+            assert_eq!(r.screen.pop_operation_max_px, 0.0, "{summary}");
+            assert_eq!(r.screen.pop_drift_max_px, r.screen.pop_max_px, "{summary}");
+        }
+        assert!(
+            fb.operations > 0 && fb.screen.pop_operation_max_px > 0.0,
+            "{summary}"
+        );
+        let parts = fb
+            .screen
+            .pop_operation_max_px
+            .max(fb.screen.pop_drift_max_px);
+        assert_eq!(fb.screen.pop_max_px, parts, "{summary}");
         // Cost: a reconstruction per frame, counted in the frame.
         let r = fb.reconstruct_ms.unwrap();
         assert!(r > 0.0 && fb.ms_per_step() > r, "{summary}");
