@@ -11,6 +11,19 @@
 //! (a slope other than −1, or a fixed cost that does not scale, only changes the rate). The
 //! cost fed in is the mean over `update_frames` frames, so the cloths, which evaluate once per
 //! feedback interval at staggered phases, have all answered the last bound before it moves.
+//!
+//! # A known limit: cloths at other substep counts
+//! The world tests' scene (twelve hanging cloths in wind and a crowd, cost-unit budget at 35%
+//! and 60% of full detail) settles within 90 frames with the cloths at the default 32
+//! substeps (38 / 47 frames) and at 64 (28 / 36), not at 16 (never at 35%; 297 frames at
+//! 60%) or 48 (190 / 193). At 16 the cloths' projected node counts run 1.5× ahead of the cuts
+//! for about 80 frames (the committed cost reads the target while the frames spend 82–92% of
+//! it); at 48 the cloths' errors keep growing as the wind builds their swing, and a rising
+//! bound buys nothing until it passes eight times the estimate of the nodes it should merge
+//! (the shared bound's merge hysteresis), so the cost rests 5–10% over the target while the
+//! bound climbs 1.2 → 7.7 px. Measured and not kept: a second integrator (gain 0.1 or 0.25 on
+//! the summed log-ratio: oscillations at every substep count) and doubling the step while it
+//! keeps the same sign (oscillations at 32).
 
 use super::budget::WorldBudget;
 
@@ -292,8 +305,9 @@ mod tests {
     fn deadband_holds_the_bound() {
         let s = settings();
         let mut c = ErrorBoundController::new(&s);
+        let off = 100.0 * f64::from(s.deadband) * 0.75;
         for i in 0..100 {
-            let cost = if i % 2 == 0 { 103.0 } else { 97.0 };
+            let cost = if i % 2 == 0 { 100.0 + off } else { 100.0 - off };
             c.observe(units(cost), 100.0, false, &s);
         }
         assert_eq!(c.updates(), 0);
