@@ -239,7 +239,6 @@ fn record_reference_here(scene: &Scene, horizon: Option<u32>) -> Result<Referenc
     })
 }
 
-/// Marks in `out` (one flag per finest vertex) the vertices a coarse node covers now.
 /// The node simulating each finest vertex (`out[v]`: its raw id): the pops of a vertex whose
 /// node changed are the level-of-detail operations' (a refine begun, a coarse ended).
 fn simulating_nodes(cloth: &AdaptiveCloth, out: &mut [u32]) {
@@ -252,6 +251,7 @@ fn simulating_nodes(cloth: &AdaptiveCloth, out: &mut [u32]) {
     }
 }
 
+/// Marks in `out` (one flag per finest vertex) the vertices a coarse node covers now.
 fn mark_coarse(cloth: &AdaptiveCloth, out: &mut [bool]) {
     out.fill(false);
     let body = cloth.body();
@@ -365,8 +365,9 @@ struct Meters {
     fine: ScreenMeter,
     /// Scratch: which vertices a coarse node covers this frame.
     covered: Vec<bool>,
-    /// The node simulating each vertex this frame, and the last ([`NO_NODE`] before the first).
+    /// The node simulating each vertex this frame ([`NO_NODE`] before the first).
     node_of: Vec<u32>,
+    /// [`Meters::node_of`] of the frame before.
     previous_node_of: Vec<u32>,
     /// Scratch: which vertices changed their simulating node this frame.
     changed: Vec<bool>,
