@@ -4,8 +4,8 @@
 //! floors, and the cost at equal p99 against uniform cuts — the same measures as the demo's
 //! perception section, on other scenes, to check that the defaults carry over.
 //!
-//! `cargo run --release -p slod-experiments --example held_out [-- small]` (full size about a
-//! minute on two cores; `small` is the tests' size).
+//! `cargo run --release -p slod-experiments --example held_out [-- small]` (full size about
+//! half a minute on two cores; `small` is the tests' size).
 
 use slod_experiments::perception::{
     self, PerceptionConfig, SceneScale, Strategy, scenes::held_out,

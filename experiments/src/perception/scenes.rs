@@ -182,6 +182,8 @@ impl Scene {
     /// The view of frame `step` (0-based): the camera there on a 1920 × 1080 viewport, 50°
     /// vertical field of view.
     pub fn view(&self, step: u32) -> Result<View, ClothError> {
+        // Fraction of the run done at this frame (0 at the first, 1 at the last).
+        let t = step as f32 / self.steps.max(2).saturating_sub(1) as f32;
         let (eye, target) = match self.camera {
             Camera::Fixed { eye, target } => (eye, target),
             Camera::DollyOrbit {
@@ -192,7 +194,6 @@ impl Scene {
                 from_angle_rad,
                 sweep_rad,
             } => {
-                let t = step as f32 / self.steps.max(2).saturating_sub(1) as f32;
                 let d = from_distance + (to_distance - from_distance) * t;
                 let a = from_angle_rad + sweep_rad * t;
                 (target + Vec3::new(d * a.sin(), height, d * a.cos()), target)
@@ -202,10 +203,7 @@ impl Scene {
                 to_eye,
                 from_target,
                 to_target,
-            } => {
-                let t = step as f32 / self.steps.max(2).saturating_sub(1) as f32;
-                (from_eye.lerp(to_eye, t), from_target.lerp(to_target, t))
-            }
+            } => (from_eye.lerp(to_eye, t), from_target.lerp(to_target, t)),
         };
         Ok(View::look_at(
             eye,
@@ -316,7 +314,7 @@ pub fn held_out(scale: SceneScale) -> Result<Vec<Scene>, ClothError> {
         true,
     )?;
     let two = scale.side(49);
-    let two_pin = held_grid(
+    let two_pin = grid_scene(
         "two_pin",
         GridSpec::horizontal(two, two, 1.5 / (two - 1) as f32, 0.6),
         &[(0, 0), (two - 1, 0)],
@@ -325,10 +323,11 @@ pub fn held_out(scale: SceneScale) -> Result<Vec<Scene>, ClothError> {
             eye: Vec3::new(0.0, 0.2, 3.2),
             target: Vec3::new(0.0, -0.8, 0.0),
         },
+        false,
     )?;
     let (hc, hr) = (scale.side(49), scale.side(33));
     let hinge: Vec<(u32, u32)> = (0..hr).map(|j| (0, j)).collect();
-    let hinged = held_grid(
+    let hinged = grid_scene(
         "hinged",
         GridSpec::horizontal(hc, hr, 1.2 / (hc - 1) as f32, 0.4),
         &hinge,
@@ -337,9 +336,10 @@ pub fn held_out(scale: SceneScale) -> Result<Vec<Scene>, ClothError> {
             eye: Vec3::new(0.6, 0.0, 3.0),
             target: Vec3::new(0.6, -0.6, 0.0),
         },
+        false,
     )?;
     let (rc, rr) = (scale.side(97), scale.side(49));
-    let rect = held_grid(
+    let rect = grid_scene(
         "rect",
         GridSpec::horizontal(rc, rr, 3.0 / (rc - 1) as f32, 1.5),
         &[(0, 0), (rc - 1, 0), (0, rr - 1), (rc - 1, rr - 1)],
@@ -348,22 +348,25 @@ pub fn held_out(scale: SceneScale) -> Result<Vec<Scene>, ClothError> {
             eye: Vec3::new(0.0, 0.8, 4.5),
             target: Vec3::new(0.0, -0.6, 0.0),
         },
+        false,
     )?;
     Ok(vec![far, grazing, track, two_pin, hinged, rect])
 }
 
-/// A horizontal grid cloth held at `pins` (grid coordinates), gravity only, seen by `camera`.
-fn held_grid(
+/// A horizontal grid cloth held at `pins` (grid coordinates), gravity only, seen by `camera`
+/// (every still scene: [`pinned_square`]'s corner-pinned nets and the held-out grids).
+fn grid_scene(
     name: &'static str,
     spec: GridSpec,
     pins: &[(u32, u32)],
     scale: SceneScale,
     camera: Camera,
+    view_dependent: bool,
 ) -> Result<Scene, ClothError> {
     let h = Arc::new(Hierarchy::grid(&spec)?);
     Ok(Scene {
         name,
-        view_dependent: false,
+        view_dependent,
         chaotic: false,
         hierarchy: h,
         rest_normal: spec.u.cross(spec.v),
@@ -389,23 +392,8 @@ fn pinned_square(
     view_dependent: bool,
 ) -> Result<Scene, ClothError> {
     let spec = GridSpec::horizontal(side, side, width / (side - 1) as f32, mass);
-    let h = Arc::new(Hierarchy::grid(&spec)?);
-    let pins = [(0, 0), (side - 1, 0), (0, side - 1), (side - 1, side - 1)]
-        .iter()
-        .map(|&(i, j)| (spec.vertex(i, j), spec.position(i, j)))
-        .collect();
-    Ok(Scene {
-        name,
-        view_dependent,
-        chaotic: false,
-        hierarchy: h,
-        rest_normal: spec.u.cross(spec.v),
-        body: TreeCutSettings::default(),
-        pins,
-        steps: scale.steps(),
-        camera,
-        driver: Driver::Still,
-    })
+    let corners = [(0, 0), (side - 1, 0), (0, side - 1), (side - 1, side - 1)];
+    grid_scene(name, spec, &corners, scale, camera, view_dependent)
 }
 
 /// The paper's camera on the net.
