@@ -310,12 +310,22 @@ impl AdaptiveCloth {
     pub(crate) fn clear_shared_bound(&mut self) {
         if let Some(f) = self.feedback.as_mut() {
             f.shared_bound = false;
+            f.curve = None;
         }
     }
 
     /// Whether the bound was last set by [`AdaptiveCloth::set_shared_error_bound_px`].
     pub(crate) fn has_shared_bound(&self) -> bool {
         self.feedback.as_ref().is_some_and(|f| f.shared_bound)
+    }
+
+    /// Under a world's shared bound, the node count the cut heads to at any bound, from the
+    /// last evaluation (`None` before one, or without a shared bound).
+    pub(crate) fn bound_curve(&self) -> Option<&std::sync::Arc<super::feedback::BoundCurve>> {
+        self.feedback
+            .as_ref()
+            .filter(|f| f.shared_bound)
+            .and_then(|f| f.curve.as_ref())
     }
 
     /// Offsets the steps at which the feedback stage runs: with interval `k` it runs at the

@@ -20,7 +20,7 @@ pub use contact::ContactSettings;
 pub use controller::{ControllerSettings, StepSample, TimeController};
 pub use error::ClothError;
 pub use feedback::{
-    AUTO_MAX_OPS_FRACTION, ClothBudget, FLICKER_GAIN_MAX, FLICKER_HALF_LIFE_SECONDS,
+    AUTO_MAX_OPS_FRACTION, BoundCurve, ClothBudget, FLICKER_GAIN_MAX, FLICKER_HALF_LIFE_SECONDS,
     FeedbackSettings, PACED_MAX_OPS, PriorityModel, compression_nodes,
 };
 pub use worn::BoneAttachments;

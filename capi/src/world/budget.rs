@@ -145,11 +145,14 @@ impl BudgetShare {
 /// then spends nodes or bone updates exactly where its estimated on-screen error exceeds the
 /// bound, so a close cloth gets nodes before a distant one and a crowd's far characters give way
 /// to a near cape: the same pixel of error is worth the same everywhere. A controller moves the
-/// bound every `update_frames` frames so that the frame's cost holds the target: cost falls
-/// about as fast as the bound rises (a cloth node's error grows with its area, a held bone's
-/// with its hold time), so it moves the bound's logarithm by `gain` times the logarithm of
-/// cost over target, at most a factor `max_change` per update, and not at all inside the
-/// relative `deadband`.
+/// bound every `update_frames` frames so that the frame's cost holds the target: each cloth
+/// under the bound says how many nodes its cut heads to at any bound (its
+/// [`crate::cloth::BoundCurve`], read off its last evaluation), a crowd's cost goes as the
+/// bound's inverse (a held bone's drift grows with its hold time), and the controller moves
+/// `gain` of the way (on the log scale) to the bound at which that model meets the target, at
+/// most a factor `max_change` per update, and not at all inside the relative `deadband`
+/// (without cloths: by `gain` times the logarithm of cost over target; see the `controller`
+/// module).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WorldBudget {
     /// What a frame may spend.
@@ -175,10 +178,10 @@ pub struct WorldBudget {
     /// bound that moves by a few percent from undoing operations, and a wider band let the
     /// cost rest at its edge while the cloths' errors kept growing (wind picking up, swings
     /// building), so frames crossed +10%. On the world tests' twelve cloths and crowd (cost-unit
-    /// budget, 35% / 60% of full detail) it settled after 49 / 53 frames with 4%, 38 / 47 with
-    /// 1%; with the cloths at 64 substeps 190 / 42 against 28 / 36; at 16 and 48 substeps neither
-    /// settles within 90 frames (see the `controller` module); nothing undone either way, and the
-    /// demo's street scene the same (54 against 53 frames, 96.6% against 95.9% within ±10%).
+    /// budget, 35% / 60% of full detail, before the controller read the cloths' curves) it
+    /// settled after 49 / 53 frames with 4%, 38 / 47 with 1%; with the cloths at 64 substeps
+    /// 190 / 42 against 28 / 36; nothing undone either way, and the demo's street scene the
+    /// same (54 against 53 frames, 96.6% against 95.9% within ±10%).
     pub deadband: f32,
     /// Largest factor the bound changes by per update (> 1).
     pub max_change: f32,

@@ -19,7 +19,7 @@ use std::time::{Duration, Instant};
 use salience::View;
 
 use super::budget::{BudgetShare, BudgetTarget, FrameClock, WorldBudget, WorldError};
-use super::controller::{ErrorBoundController, FrameCost};
+use super::controller::{ClothResponse, ErrorBoundController, FrameCost};
 use super::jobs::{
     ClothJob, CrowdJob, StepCost, apply_cloth_share, full_ratio, run_cloths, run_crowds,
     run_together,
@@ -150,6 +150,12 @@ pub struct Frame {
     committed_units: f64,
     /// Cost units of crowds and evaluations.
     fluctuating_units: f64,
+    /// Cost units of the crowds that spend the shared bound.
+    crowd_units: f64,
+    /// Cost units of the cloths' transitions in flight.
+    transition_units: f64,
+    /// How each cloth under the shared bound answers it.
+    responses: Vec<ClothResponse>,
     first_error: Option<WorldError>,
 }
 
@@ -324,6 +330,9 @@ impl FrameBudgeter {
             objects: Vec::new(),
             committed_units: 0.0,
             fluctuating_units: 0.0,
+            crowd_units: 0.0,
+            transition_units: 0.0,
+            responses: Vec::new(),
             first_error: None,
         }
     }
@@ -457,6 +466,9 @@ impl FrameBudgeter {
                     frame.stats.crowds += 1;
                     frame.stats.cost_units += units;
                     frame.fluctuating_units += units;
+                    if matches!(job.share, BudgetShare::Shared { .. }) {
+                        frame.crowd_units += units;
+                    }
                     frame.stats.bones_interpolated += s.bones_interpolated;
                     frame.stats.bones_animated += animated;
                     frame.objects.push(ObjectFrame {
@@ -542,6 +554,19 @@ impl FrameBudgeter {
             };
             frame.committed_units += committed;
             frame.fluctuating_units += units - work.settled_units;
+            frame.transition_units += work.transition_units;
+            if let (BudgetShare::Shared { weight }, Some(curve)) = (job.share, c.bound_curve())
+                && nodes > 0.0
+            {
+                // The fixed cost of a step does not scale with the nodes.
+                let fixed = work.steps as f64 * self.settings.cost.cloth.fixed * 1e9;
+                frame.responses.push(ClothResponse {
+                    curve: curve.clone(),
+                    units_per_node: (work.settled_units - fixed).max(0.0) / nodes,
+                    weight,
+                    full_nodes: c.hierarchy().vertex_count() as f64,
+                });
+            }
             let (steps, evaluations) = (work.steps, work.evaluations);
             let full = c.hierarchy().vertex_count() as u64;
             frame.stats.cloths += 1;
@@ -591,10 +616,13 @@ impl FrameBudgeter {
             let seen = FrameCost {
                 committed_units: frame.committed_units,
                 fluctuating_units: frame.fluctuating_units,
+                crowd_units: frame.crowd_units,
+                transition_units: frame.transition_units,
                 units: frame.stats.cost_units,
                 ms,
             };
-            self.controller.observe(seen, target, in_ms, &self.settings);
+            self.controller
+                .observe(seen, &frame.responses, target, in_ms, &self.settings);
         }
         let now = self.frames;
         // Shares set since the last frame for objects not yet stepped have `seen == MAX`.

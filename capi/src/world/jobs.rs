@@ -45,6 +45,7 @@ fn step_job(job: &mut ClothJob<'_>, view: &View, model: crate::cloth::CostModel)
             work.evaluations += (w.evaluated_nodes > 0) as u64;
             work.units += all;
             work.settled_units += all - evaluation - transitions;
+            work.transition_units += transitions;
         }
         Ok(work)
     })();
@@ -162,6 +163,8 @@ pub(crate) struct StepCost {
     pub(crate) units: f64,
     /// Without the evaluations and the transitions in flight.
     pub(crate) settled_units: f64,
+    /// The transitions in flight.
+    pub(crate) transition_units: f64,
 }
 
 /// Puts a cloth's feedback budget where its share says: the world's bound (in place, keeping

@@ -95,8 +95,27 @@ const DT: f32 = 1.0 / 60.0;
 
 /// Cost units of one frame of the scene at full detail (finest cuts, LOD off).
 fn full_detail_units() -> f64 {
-    let (mut w, _, _) = scene(WorldBudget::default(), 0, LodMode::Off);
+    full_detail_units_at(DEFAULT_SUBSTEPS)
+}
+
+/// The cloths' solver substeps by default.
+const DEFAULT_SUBSTEPS: u32 = 32;
+
+/// [`full_detail_units`] with the cloths at `substeps`.
+fn full_detail_units_at(substeps: u32) -> f64 {
+    let (mut w, keys, _) = scene(WorldBudget::default(), 0, LodMode::Off);
+    set_substeps(&mut w, &keys, substeps);
     w.step(DT, &view(0)).unwrap().cost_units
+}
+
+/// Sets every cloth's solver substeps.
+fn set_substeps(w: &mut World, keys: &[ClothKey], substeps: u32) {
+    for &k in keys {
+        let c = w.cloth_mut(k).unwrap();
+        let mut solver = c.body().settings().solver;
+        solver.substeps = substeps;
+        c.body_mut().set_solver_settings(solver).unwrap();
+    }
 }
 
 struct Trace {
@@ -106,7 +125,13 @@ struct Trace {
 }
 
 fn run(budget: WorldBudget, frames: u32) -> (World, Trace) {
-    let (mut w, _, _) = scene(budget, 2, LodMode::Off);
+    run_at(budget, frames, DEFAULT_SUBSTEPS)
+}
+
+/// [`run`] with the cloths at `substeps`.
+fn run_at(budget: WorldBudget, frames: u32, substeps: u32) -> (World, Trace) {
+    let (mut w, keys, _) = scene(budget, 2, LodMode::Off);
+    set_substeps(&mut w, &keys, substeps);
     let mut costs = Vec::new();
     for f in 0..frames {
         costs.push(w.step(DT, &view(f)).unwrap().measured);
@@ -121,42 +146,47 @@ fn run(budget: WorldBudget, frames: u32) -> (World, Trace) {
 
 /// The issue's test of a controller on real work: from a cold start the frame cost reaches the
 /// target within 60 frames and then stays within ±10% on ≥ 95% of frames, with < 1% of
-/// operations undone within 30 frames — on cloths and a crowd, with a moving camera.
+/// operations undone within 30 frames — on cloths and a crowd, with a moving camera; and not
+/// only at the solver settings the defaults were chosen at: with the cloths at 48 and 64
+/// substeps too (their costs, error estimates and merge lags differ). Before the controller
+/// read the cloths' bound curves it settled at 48 substeps only after 190 frames (35% of full
+/// detail) and 193 (60%): the cloths' errors grew with the wind while the bound crept through
+/// the merge hysteresis. 16 substeps is outside what it holds (see the `controller` module).
 #[test]
 fn cost_unit_budget_settles_on_cloths_and_a_crowd() {
-    let full = full_detail_units();
-    for fraction in [0.35, 0.6] {
-        let target = fraction * full;
-        let (_, t) = run(
-            WorldBudget {
+    for substeps in [DEFAULT_SUBSTEPS, 48, 64] {
+        let full = full_detail_units_at(substeps);
+        for fraction in [0.35, 0.6] {
+            let target = fraction * full;
+            let budget = WorldBudget {
                 target: BudgetTarget::CostUnits(target),
                 ..WorldBudget::default()
-            },
-            300,
-        );
-        let within = |c: f64| (c - target).abs() <= 0.1 * target;
-        // Settled: the first frame from which the cost is within 10% on at least 95% of the
-        // frames (the demo's `settled_after_frames`).
-        let settled = (0..t.costs.len())
-            .find(|&f| {
+            };
+            let (_, t) = run_at(budget, 300, substeps);
+            let within = |c: f64| (c - target).abs() <= 0.1 * target;
+            // Settled: the first frame from which the cost is within 10% on at least 95% of
+            // the frames (the demo's `settled_after_frames`).
+            let settled = (0..t.costs.len()).find(|&f| {
                 let rest = &t.costs[f..];
                 rest.iter().filter(|&&c| within(c)).count() as f64 >= 0.95 * rest.len() as f64
-            })
-            .unwrap();
-        // 60 frames is the issue's target on its street scene (tested in `slod-experiments`);
-        // here twelve small cloths start at level 2 (6% of their nodes) and must refine up to
-        // 6–10× that under the transition allowance, which takes up to about 75 frames.
-        assert!(
-            settled <= 90,
-            "{fraction} of full: settled at frame {settled}; costs/target {:?}",
-            t.costs.iter().map(|c| c / target).collect::<Vec<_>>()
-        );
-        assert!(
-            (t.undone as f64) < 0.01 * t.ops as f64,
-            "{fraction} of full: {} of {} operations undone",
-            t.undone,
-            t.ops
-        );
+            });
+            // 60 frames is the issue's target on its street scene (tested in
+            // `slod-experiments`); here twelve small cloths start at level 2 (6% of their
+            // nodes) and must refine up to 6–10× that under the transition allowance, which
+            // takes up to about 75 frames.
+            assert!(
+                settled.is_some_and(|f| f <= 90),
+                "{substeps} substeps, {fraction} of full: settled at frame {settled:?}; \
+                 costs/target {:?}",
+                t.costs.iter().map(|c| c / target).collect::<Vec<_>>()
+            );
+            assert!(
+                (t.undone as f64) < 0.01 * t.ops as f64,
+                "{substeps} substeps, {fraction} of full: {} of {} operations undone",
+                t.undone,
+                t.ops
+            );
+        }
     }
 }
 
@@ -379,4 +409,44 @@ fn bad_settings_are_refused_and_change_nothing() {
     drop(removed);
     assert!(w.step(f32::NAN, &view(0)).is_err());
     assert_eq!(w.budget().last_stats().frame, 0);
+}
+
+/// A cloth's bound curve at the bound it ran under is its own projection (up to the curve's
+/// interpolation between bins 1/16 of an octave apart), and it never rises with the bound:
+/// what the controller reads agrees with what the cloth will do. (The bound held still: a
+/// deadband no window leaves.)
+#[test]
+fn bound_curves_agree_with_the_cloths_projections() {
+    let target = 0.4 * full_detail_units();
+    let (w, _) = run(
+        WorldBudget {
+            target: BudgetTarget::CostUnits(target),
+            deadband: 0.999,
+            ..WorldBudget::default()
+        },
+        60,
+    );
+    let mut checked = 0;
+    for (_, c) in w.cloths() {
+        let (Some(curve), Some(f)) = (c.bound_curve(), c.feedback()) else {
+            continue;
+        };
+        let crate::cloth::ClothBudget::MaxErrorPx(bound) = f.budget else {
+            panic!("a shared cloth runs under an error bound");
+        };
+        let projected = c.stats().projected_nodes as f64;
+        let at = curve.nodes_at(bound);
+        assert!(
+            (at - projected).abs() <= 0.05 * projected + 1.0,
+            "curve {at} nodes at {bound} px, projection {projected}"
+        );
+        let mut last = f64::INFINITY;
+        for k in 0..200 {
+            let n = curve.nodes_at(0.01 * 1.06f32.powi(k));
+            assert!(n <= last, "the curve rises at step {k}");
+            last = n;
+        }
+        checked += 1;
+    }
+    assert_eq!(checked, 12, "every cloth has a curve");
 }

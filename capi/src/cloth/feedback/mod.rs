@@ -6,6 +6,7 @@
 //!
 //! Based on: the simulation-LOD paper (`simulation-lod-treecut-softbody-bswdf.txt`), sections 4–5 (the feedback stage).
 
+mod curve;
 mod deformation;
 mod deviation;
 mod memory;
@@ -20,6 +21,7 @@ use treecut::{Evaluator, NodeId};
 use super::adaptive::UNDO_WINDOW_STEPS;
 use super::controller::TimeController;
 use super::error::ClothError;
+pub use curve::BoundCurve;
 use deformation::Strain;
 use deviation::{Deviation, Frame};
 use memory::Memory;
@@ -89,6 +91,9 @@ pub(crate) struct Feedback {
     /// The node count [`ClothBudget::MaxErrorPx`] projects the cut to reach under its bound
     /// (refinement carried through every level the estimate says), at the last measurement.
     projected_nodes: Option<usize>,
+    /// Under a world's shared bound: the node count the cut heads to at any bound, from the
+    /// last measurement (shared with the world, which reads it when it moves the bound).
+    pub(crate) curve: Option<std::sync::Arc<BoundCurve>>,
     /// Measurements made so far.
     measurements: u64,
     /// Per hierarchy node: whether it is not a leaf and covers a rim vertex (computed at the
@@ -136,6 +141,7 @@ impl Feedback {
             deviation: Deviation::new(hierarchy_len),
             error_budget: None,
             projected_nodes: None,
+            curve: None,
             measurements: 0,
             rim: Vec::new(),
         }
@@ -474,6 +480,15 @@ impl Feedback {
         } else {
             settings::ERROR_BOUND_MERGE
         };
+        // The curve a world reads (only under its shared bound): every candidate at any bound.
+        let mut curve = match self.curve.take() {
+            _ if !self.shared_bound => None,
+            c => {
+                let mut c = c.unwrap_or_default();
+                std::sync::Arc::make_mut(&mut c).start(cut.len());
+                Some(c)
+            }
+        };
         for (i, &node) in nodes.iter().enumerate() {
             let px = self.deviation.particle_px[i];
             if cut.is_on_cut(node) {
@@ -488,7 +503,13 @@ impl Feedback {
                     px
                 };
                 self.priorities[node.index()] = px;
-                if px > refine_above && !h.is_leaf(node) && cut.can_refine(h, node).is_ok() {
+                let refinable = !h.is_leaf(node) && cut.can_refine(h, node).is_ok();
+                if let Some(c) = curve.as_mut().filter(|_| refinable) {
+                    let leaves = h.vertices(node).len() as u64;
+                    let r = settings::ERROR_BOUND_REFINE;
+                    std::sync::Arc::make_mut(c).add_refine(px, h.level(node), leaves, r);
+                }
+                if px > refine_above && refinable {
                     budget += h.child_count(node) as i64 - 1;
                     let (mut e, mut levels) = (px, 0u32);
                     while e > refine_above && levels < h.level(node) {
@@ -531,7 +552,12 @@ impl Feedback {
                     (rc > 0.0).then(|| self.deviation.particle_px[p.index()] * (rp / rc).powi(2))
                 })
                 .fold(0.0, f32::max);
-            let mergeable = px < merge_fraction * bound && cut.can_coarse(h, parent).is_ok();
+            let coarsenable = cut.can_coarse(h, parent).is_ok();
+            if let Some(c) = curve.as_mut().filter(|_| coarsenable && merges) {
+                let children = h.child_count(parent) as u64;
+                std::sync::Arc::make_mut(c).add_merge(px, children, merge_fraction);
+            }
+            let mergeable = px < merge_fraction * bound && coarsenable;
             if !merges || recent(parent) == Recent::Refined {
                 // The evaluator merges only to make room, and there is room; a key above every
                 // refine candidate keeps swaps from merging too. A merge the residency only
@@ -547,6 +573,10 @@ impl Feedback {
                 budget -= h.child_count(parent) as i64 - 1;
                 projected -= h.child_count(parent) as i64 - 1;
             }
+        }
+        if let Some(mut c) = curve {
+            std::sync::Arc::make_mut(&mut c).finish();
+            self.curve = Some(c);
         }
         (budget.max(1) as usize, projected.max(1) as usize)
     }
