@@ -471,7 +471,7 @@ fn check_perception(p: &Value) {
             &["name", "view_dependent", "chaotic", "twin_floor_px", "runs"],
         );
         assert!(s["view_dependent"].is_boolean() && s["chaotic"].is_boolean());
-        has(&s["twin_floor_px"], &["rms", "max"]);
+        has(&s["twin_floor_px"], &["rms", "p99", "max"]);
         let runs = s["runs"].as_array().unwrap();
         for name in strategies {
             assert!(

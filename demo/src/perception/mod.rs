@@ -237,8 +237,9 @@ fn render_runs(outcomes: &[SceneOutcome], config: &PerceptionConfig) -> String {
             ]);
         }
         t.note(format!(
-            "twin floor (the reference perturbed by 1 µm): rms {} px, max {} px; solver floor (the \
-             reference against itself at {}× the substeps): rms {} px, max {} px; ms/frame = step + \
+            "twin floor (the reference perturbed by 1 µm): rms {} px, p99 {} px, max {} px; solver \
+             floor (the reference against itself at {}× the substeps): rms {} px, p99 {} px, max \
+             {} px; ms/frame = step + \
              evaluation + reconstruction (the reference needs none), one thread's CPU time, all \
              runs of the scene interleaved, {} steps of each in turn; reconstruct: its share; \
              coarse / fine p99: at the vertices coarse nodes cover (the error a node's deviation \
@@ -247,9 +248,11 @@ fn render_runs(outcomes: &[SceneOutcome], config: &PerceptionConfig) -> String {
              vertex's error, at vertices whose simulating node changed that frame (ops: a refine \
              begun, a coarse ended) and elsewhere (drift)",
             num(o.twin_floor.rms_px, 3),
+            num(o.twin_floor.p99_px, 3),
             num(o.twin_floor.max_px, 3),
             slod_experiments::perception::SOLVER_FLOOR_SUBSTEPS_FACTOR,
             num(o.solver_floor.rms_px, 2),
+            num(o.solver_floor.p99_px, 2),
             num(o.solver_floor.max_px, 2),
             slod_experiments::perception::INTERLEAVE_STEPS
         ));

@@ -40,10 +40,12 @@ pub(crate) struct SceneRecord {
     pub(crate) uniform_curve: Vec<CurvePoint>,
 }
 
-/// A floor (the twin floor, the solver floor): on-screen RMS and maximum, px.
+/// A floor (the twin floor, the solver floor): on-screen RMS, 99th percentile and maximum,
+/// px (the percentile to set beside an error-bound run's).
 #[derive(Clone, Copy, Debug, Serialize)]
 pub(crate) struct Floor {
     pub(crate) rms: f64,
+    pub(crate) p99: f64,
     pub(crate) max: f64,
 }
 
@@ -145,10 +147,12 @@ pub(crate) fn section(
                 steps: o.steps,
                 twin_floor_px: Floor {
                     rms: o.twin_floor.rms_px,
+                    p99: o.twin_floor.p99_px,
                     max: o.twin_floor.max_px,
                 },
                 solver_floor_px: Floor {
                     rms: o.solver_floor.rms_px,
+                    p99: o.solver_floor.p99_px,
                     max: o.solver_floor.max_px,
                 },
                 runs: o.runs.iter().map(run).collect(),
