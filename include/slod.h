@@ -571,9 +571,15 @@ typedef struct SlodCostModel {
    */
   double node_substep;
   /**
-   * One refine/coarse transition in flight through one step, ns.
+   * One refine/coarse transition in flight through one step, ns: the part that does not
+   * depend on the cloth's substeps.
    */
   double transition;
+  /**
+   * One refine/coarse transition in flight through one substep, ns (its blended links are
+   * solved in every substep).
+   */
+  double transition_substep;
   /**
    * One simulated node through one feedback evaluation, ns.
    */

@@ -398,6 +398,7 @@ impl AdaptiveCloth {
         work.link_iterations = self.link_count() as u64 * passes * solver.iterations as u64;
         work.node_substeps = self.body.particle_count() as u64 * passes;
         work.transitions = self.body.transitions_in_flight() as u64;
+        work.transition_substeps = work.transitions * passes;
         self.stats.last_work = work;
         let nodes = self.body.particle_count();
         self.body.step();

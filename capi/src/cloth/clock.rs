@@ -16,6 +16,8 @@ pub struct StepWork {
     pub node_substeps: u64,
     /// Refine/coarse transitions blended during the step (each one also begins or ends).
     pub transitions: u64,
+    /// Those transitions × the step's substeps (their blended links are solved every substep).
+    pub transition_substeps: u64,
     /// Nodes whose salience the feedback evaluation measured in this step (0 on steps without
     /// an evaluation).
     pub evaluated_nodes: u64,
@@ -23,15 +25,19 @@ pub struct StepWork {
 
 /// A deterministic cost per unit of work, in seconds: `fixed + link_iteration ×
 /// link_iterations + node_substep × node_substeps + transition × transitions +
-/// evaluated_node × evaluated_nodes`.
+/// transition_substep × transition_substeps + evaluated_node × evaluated_nodes`.
 ///
 /// The defaults are the TreeCut cloth measured on the 2-core development machine (release build,
 /// 65×65 net, 32 substeps of one iteration): 2 ns per link solve, 1 ns per particle update,
-/// 6 µs per transition in flight (a transition costs as much as about twenty simulated nodes:
-/// its group constraint, the links it fades, and its begin and end), and 70 ns per node an
-/// evaluation measures. They need not be accurate: what matters for a test is that the model has
-/// the shape of the real cost (linear in the work, transitions expensive, the evaluation a spike
-/// every `interval` steps).
+/// 6 µs per transition in flight at 32 substeps (a transition costs as much as about twenty
+/// simulated nodes: its group constraint, the links it fades, and its begin and end), and 70 ns
+/// per node an evaluation measures. A transition's cost grows with the substeps, as its blended
+/// links are solved in every one: measured on a 65² net at level 2 with ~28 refines in flight,
+/// 2.1 / 3.2 / 5.4 µs per transition per step at 16 / 32 / 64 substeps, about 1 µs plus 70 ns per
+/// substep; so the 6 µs are charged as 1 µs per step plus 156 ns per substep (the same at 32,
+/// 3.5 µs at 16, 11 µs at 64). They need not be accurate: what matters for a test is that the
+/// model has the shape of the real cost (linear in the work, transitions expensive, the
+/// evaluation a spike every `interval` steps).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CostModel {
     /// Seconds per step whatever the work.
@@ -40,8 +46,11 @@ pub struct CostModel {
     pub link_iteration: f64,
     /// Seconds per particle update.
     pub node_substep: f64,
-    /// Seconds per transition in flight per step.
+    /// Seconds per transition in flight per step (its part that does not depend on the
+    /// substeps).
     pub transition: f64,
+    /// Seconds per transition in flight per substep.
+    pub transition_substep: f64,
     /// Seconds per node measured by an evaluation.
     pub evaluated_node: f64,
 }
@@ -52,7 +61,8 @@ impl Default for CostModel {
             fixed: 5e-6,
             link_iteration: 2e-9,
             node_substep: 1e-9,
-            transition: 6e-6,
+            transition: 1e-6,
+            transition_substep: 5e-6 / 32.0,
             evaluated_node: 70e-9,
         }
     }
@@ -64,8 +74,19 @@ impl CostModel {
         self.fixed
             + self.link_iteration * work.link_iterations as f64
             + self.node_substep * work.node_substeps as f64
-            + self.transition * work.transitions as f64
+            + self.transition_seconds(work)
             + self.evaluated_node * work.evaluated_nodes as f64
+    }
+
+    /// The part of [`CostModel::seconds`] the transitions in flight account for.
+    pub fn transition_seconds(&self, work: &StepWork) -> f64 {
+        self.transition * work.transitions as f64
+            + self.transition_substep * work.transition_substeps as f64
+    }
+
+    /// What one transition in flight costs a step of `substeps` substeps, seconds.
+    pub fn per_transition_seconds(&self, substeps: u32) -> f64 {
+        self.transition + self.transition_substep * substeps as f64
     }
 
     /// The part of [`CostModel::seconds`] the evaluation accounts for.
@@ -80,6 +101,7 @@ impl CostModel {
             self.link_iteration,
             self.node_substep,
             self.transition,
+            self.transition_substep,
             self.evaluated_node,
         ]
         .iter()

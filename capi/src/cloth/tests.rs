@@ -613,12 +613,19 @@ fn model_clock_makes_the_time_budget_deterministic() {
 fn bad_cost_model_is_refused() {
     let mut c = net(9, 0, TreeCutSettings::default());
     for bad in [-1.0, f64::NAN, f64::INFINITY] {
-        let model = CostModel {
-            transition: bad,
-            ..CostModel::default()
-        };
-        assert!(c.set_step_clock(StepClock::Model(model)).is_err());
-        assert_eq!(c.step_clock(), StepClock::Wall);
+        for model in [
+            CostModel {
+                transition: bad,
+                ..CostModel::default()
+            },
+            CostModel {
+                transition_substep: bad,
+                ..CostModel::default()
+            },
+        ] {
+            assert!(c.set_step_clock(StepClock::Model(model)).is_err());
+            assert_eq!(c.step_clock(), StepClock::Wall);
+        }
     }
 }
 

@@ -59,8 +59,12 @@ pub struct SlodCostModel {
     pub link_iteration: f64,
     /// One simulated node through one substep, ns.
     pub node_substep: f64,
-    /// One refine/coarse transition in flight through one step, ns.
+    /// One refine/coarse transition in flight through one step, ns: the part that does not
+    /// depend on the cloth's substeps.
     pub transition: f64,
+    /// One refine/coarse transition in flight through one substep, ns (its blended links are
+    /// solved in every substep).
+    pub transition_substep: f64,
     /// One simulated node through one feedback evaluation, ns.
     pub evaluation_node: f64,
     /// One bone sampled and interpolated, ns.
@@ -78,6 +82,7 @@ impl SlodCostModel {
             link_iteration: m.cloth.link_iteration * 1e9,
             node_substep: m.cloth.node_substep * 1e9,
             transition: m.cloth.transition * 1e9,
+            transition_substep: m.cloth.transition_substep * 1e9,
             evaluation_node: m.cloth.evaluated_node * 1e9,
             bone_sampled: m.bone_sampled,
             bone_concatenated: m.bone_concatenated,
@@ -92,6 +97,7 @@ impl SlodCostModel {
                 link_iteration: self.link_iteration * 1e-9,
                 node_substep: self.node_substep * 1e-9,
                 transition: self.transition * 1e-9,
+                transition_substep: self.transition_substep * 1e-9,
                 evaluated_node: self.evaluation_node * 1e-9,
             },
             bone_sampled: self.bone_sampled,
@@ -550,6 +556,7 @@ mod tests {
             (a.link_iteration, b.link_iteration),
             (a.node_substep, b.node_substep),
             (a.transition, b.transition),
+            (a.transition_substep, b.transition_substep),
             (a.evaluated_node, b.evaluated_node),
         ] {
             assert!((x - y).abs() <= 1e-12 * y.abs(), "{x} vs {y}");

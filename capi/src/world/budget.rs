@@ -187,7 +187,8 @@ pub struct WorldBudget {
     pub max_change: f32,
     /// Fraction of the target that refine/coarse transitions in flight may spend ([0, 1]; 0 =
     /// no cap). A transition costs a step as much as a few dozen simulated nodes while it
-    /// blends (the cloth's [`crate::cloth::CostModel::transition`]), so a cut that moves fast
+    /// blends (the cloth's [`crate::cloth::CostModel::transition`] and
+    /// [`crate::cloth::CostModel::transition_substep`] by its substeps), so a cut that moves fast
     /// makes frames long exactly when the budget is being met: the cloths due to evaluate in a
     /// frame share what is left of this allowance (plus what the last frame left unspent; under
     /// a wall-clock millisecond target, its time left converted at what one more cost unit

@@ -656,7 +656,8 @@ impl FrameBudgeter {
     /// Caps the operations the cloths due to evaluate this frame may begin, so that the
     /// transitions in flight stay within `transition_share` of the target plus what the last
     /// frame left unspent: what is left of that allowance after the transitions already
-    /// blending, shared equally (at least one operation
+    /// blending, shared equally in cost units (so a cloth at fewer substeps, whose transitions
+    /// cost less, may begin more; at least one operation
     /// each, at most what the cloth's settings with the automatic `max_ops` allow at its node
     /// count: [`FeedbackSettings::ops_per_evaluation`]; the cap set here replaces `max_ops`, so
     /// the automatic value, not the last cap, bounds the next).
@@ -665,12 +666,20 @@ impl FrameBudgeter {
         let (Some(target), share) = (self.target_units(), self.settings.transition_share) else {
             return Ok(());
         };
-        let per_transition = self.settings.cost.cloth.transition * 1e9;
-        if share <= 0.0 || per_transition <= 0.0 {
+        let model = self.settings.cost.cloth;
+        // What one transition in flight costs each cloth's step, units (it grows with the
+        // cloth's substeps).
+        let per_transition = |j: &ClothJob<'_>| {
+            model.per_transition_seconds(j.cloth.body().settings().solver.substeps) * 1e9
+        };
+        if share <= 0.0 || model.per_transition_seconds(1) <= 0.0 {
             return Ok(());
         }
         let shared = |j: &ClothJob<'_>| matches!(j.share, BudgetShare::Shared { .. });
-        let in_flight: usize = jobs.iter().map(|j| j.cloth.interpolations()).sum();
+        let in_flight: f64 = jobs
+            .iter()
+            .map(|j| j.cloth.interpolations() as f64 * per_transition(j))
+            .sum();
         // Unspent budget is room too: a cut far under its target may move fast. Under a
         // wall-clock millisecond target the time left is converted at what one more unit costs
         // (the fitted slope), not at the average (which a frame's fixed costs inflate).
@@ -682,8 +691,8 @@ impl FrameBudgeter {
             _ => target - self.last.cost_units,
         }
         .max(0.0);
-        let allowed = (share as f64 * target + headroom) / per_transition;
-        let room = (allowed - in_flight as f64).max(0.0);
+        // The allowance in cost units, less what the transitions in flight spend.
+        let room = (share as f64 * target + headroom - in_flight).max(0.0);
         let due = jobs
             .iter()
             .filter(|j| shared(j) && j.cloth.evaluation_due())
@@ -691,7 +700,7 @@ impl FrameBudgeter {
         if due == 0 {
             return Ok(());
         }
-        let fair = (room / due as f64).floor() as usize;
+        let fair = room / due as f64;
         for j in jobs
             .iter_mut()
             .filter(|j| shared(j) && j.cloth.evaluation_due())
@@ -700,7 +709,8 @@ impl FrameBudgeter {
                 continue;
             };
             let auto = FeedbackSettings { max_ops: 0, ..f };
-            let each = fair.clamp(1, auto.ops_per_evaluation(j.cloth.node_count()));
+            let ops = (fair / per_transition(j)).floor() as usize;
+            let each = ops.clamp(1, auto.ops_per_evaluation(j.cloth.node_count()));
             if f.max_ops != each {
                 j.cloth
                     .set_feedback(Some(FeedbackSettings { max_ops: each, ..f }))?;

@@ -40,7 +40,7 @@ fn step_job(job: &mut ClothJob<'_>, view: &View, model: crate::cloth::CostModel)
             let w = job.cloth.stats().last_work;
             let all = model.seconds(&w) * 1e9;
             let evaluation = model.evaluation_seconds(&w) * 1e9;
-            let transitions = model.transition * w.transitions as f64 * 1e9;
+            let transitions = model.transition_seconds(&w) * 1e9;
             work.steps += 1;
             work.evaluations += (w.evaluated_nodes > 0) as u64;
             work.units += all;

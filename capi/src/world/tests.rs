@@ -151,7 +151,8 @@ fn run_at(budget: WorldBudget, frames: u32, substeps: u32) -> (World, Trace) {
 /// substeps too (their costs, error estimates and merge lags differ). Before the controller
 /// read the cloths' bound curves it settled at 48 substeps only after 190 frames (35% of full
 /// detail) and 193 (60%): the cloths' errors grew with the wind while the bound crept through
-/// the merge hysteresis. 16 substeps is outside what it holds (see the `controller` module).
+/// the merge hysteresis. At 16 substeps it holds at 35% but not at 60% of full detail (see the
+/// `controller` module).
 #[test]
 fn cost_unit_budget_settles_on_cloths_and_a_crowd() {
     for substeps in [DEFAULT_SUBSTEPS, 48, 64] {
