@@ -28,7 +28,7 @@ use salience::View;
 use slod_core::{Arena, Handle};
 
 pub use budget::{BudgetShare, BudgetTarget, CostModel, FrameClock, WorldBudget, WorldError};
-pub use controller::ErrorBoundController;
+pub use controller::{ClothResponse, ErrorBoundController};
 pub use frame::{FrameBudgeter, ObjectFrame, ObjectKey, ObjectKind, WorldStepStats};
 
 use crate::cloth::AdaptiveCloth;

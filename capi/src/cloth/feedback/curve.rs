@@ -29,6 +29,11 @@ const BINS: usize = ((HIGHEST_OCTAVE - LOWEST_OCTAVE) * BINS_PER_OCTAVE) as usiz
 /// octave) rather than sorted: a 129² cloth has ~65,000 of them, and sorting them took 2.3 ms
 /// here (an evaluation of that cloth takes ~4 ms) against 0.2 ms to bin them; between bin
 /// edges the count is interpolated.
+///
+/// Built with [`BoundCurve::start`], then [`BoundCurve::add_refine`] and
+/// [`BoundCurve::add_merge`] per candidate, then [`BoundCurve::finish`] once; read with
+/// [`BoundCurve::nodes_at`]. A cloth under a world's shared bound builds its own at every
+/// evaluation (the world's controller reads it).
 #[derive(Clone, Debug, PartialEq)]
 pub struct BoundCurve {
     /// Nodes on the cut at the measurement.
@@ -64,9 +69,9 @@ fn position(px: f32) -> f32 {
 }
 
 impl BoundCurve {
-    /// An empty curve for a cut of `cut` nodes (the projection is `cut` at every bound until
+    /// Empties the curve for a cut of `cut` nodes (the projection is `cut` at every bound until
     /// events are added).
-    pub(crate) fn start(&mut self, cut: usize) {
+    pub fn start(&mut self, cut: usize) {
         self.cut = cut;
         self.refine.iter_mut().for_each(|v| *v = 0.0);
         self.merge.iter_mut().for_each(|v| *v = 0.0);
@@ -80,7 +85,7 @@ impl BoundCurve {
     /// A refine candidate: a node of estimate `px`, `level` levels above the leaves, covering
     /// `leaves` finest vertices, refined while its estimate halved per level exceeds
     /// `refine_fraction` of the bound.
-    pub(crate) fn add_refine(&mut self, px: f32, level: u32, leaves: u64, refine_fraction: f32) {
+    pub fn add_refine(&mut self, px: f32, level: u32, leaves: u64, refine_fraction: f32) {
         let (mut e, mut covered) = (px / refine_fraction, 1u64);
         for _ in 0..level {
             let next = covered.saturating_mul(4).min(leaves);
@@ -94,14 +99,15 @@ impl BoundCurve {
 
     /// A merge candidate: a parent of estimate `px` with `children` children, merged while its
     /// estimate stays under `merge_fraction` of the bound.
-    pub(crate) fn add_merge(&mut self, px: f32, children: u64, merge_fraction: f32) {
+    pub fn add_merge(&mut self, px: f32, children: u64, merge_fraction: f32) {
         if children > 1 {
             self.merge[Self::bin(px / merge_fraction)] += (children - 1) as f64;
         }
     }
 
-    /// Sums the bins into counts per bin edge (call once after adding the events).
-    pub(crate) fn finish(&mut self) {
+    /// Sums the bins into counts per bin edge (call once after adding the events, before
+    /// [`BoundCurve::nodes_at`]).
+    pub fn finish(&mut self) {
         // Edge k: refine events in bins k and above, merge events in bins below k.
         let mut sum = 0.0;
         for v in self.refine.iter_mut().rev() {
