@@ -88,6 +88,9 @@ pub struct WorldConfig {
     pub cost_fraction: f64,
     /// Frames of the cost-unit variant.
     pub cost_frames: u32,
+    /// Solver substeps of every cloth (the solver's default, 32, in the scene; others
+    /// check that the budget holds at other solver settings).
+    pub cloth_substeps: u32,
     /// Directory of the glTF rigs (GDBot).
     pub assets: PathBuf,
     /// How long the world's workers spin between phases and frames, ms
@@ -116,6 +119,7 @@ impl WorldConfig {
             crowd_error_every: 5,
             cost_fraction: 0.4,
             cost_frames: 300,
+            cloth_substeps: softbody::SolverSettings::default().substeps,
             assets: assets.to_path_buf(),
             spin_wait_ms: 10.0,
         }
@@ -409,7 +413,15 @@ fn build(
         Build::Reference => 0,
     };
     for (k, p) in street_cloths().iter().enumerate() {
-        let cloth = p.cloth(config.size_halvings, level, 17 + k as u64)?;
+        let mut cloth = p.cloth(config.size_halvings, level, 17 + k as u64)?;
+        let solver = softbody::SolverSettings {
+            substeps: config.cloth_substeps,
+            ..cloth.body().settings().solver
+        };
+        cloth
+            .body_mut()
+            .set_solver_settings(solver)
+            .map_err(ClothError::from)?;
         let full = cloth.hierarchy().vertex_count() as u64;
         let key = world.add_cloth(cloth);
         index.insert(key.object(), objects.len());
