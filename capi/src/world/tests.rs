@@ -95,11 +95,13 @@ const DT: f32 = 1.0 / 60.0;
 
 /// Cost units of one frame of the scene at full detail (finest cuts, LOD off).
 fn full_detail_units() -> f64 {
-    full_detail_units_at(DEFAULT_SUBSTEPS)
+    full_detail_units_at(default_substeps())
 }
 
 /// The cloths' solver substeps by default.
-const DEFAULT_SUBSTEPS: u32 = 32;
+fn default_substeps() -> u32 {
+    softbody::SolverSettings::default().substeps
+}
 
 /// [`full_detail_units`] with the cloths at `substeps`.
 fn full_detail_units_at(substeps: u32) -> f64 {
@@ -125,7 +127,7 @@ struct Trace {
 }
 
 fn run(budget: WorldBudget, frames: u32) -> (World, Trace) {
-    run_at(budget, frames, DEFAULT_SUBSTEPS)
+    run_at(budget, frames, default_substeps())
 }
 
 /// [`run`] with the cloths at `substeps`.
@@ -155,7 +157,7 @@ fn run_at(budget: WorldBudget, frames: u32, substeps: u32) -> (World, Trace) {
 /// `controller` module).
 #[test]
 fn cost_unit_budget_settles_on_cloths_and_a_crowd() {
-    for substeps in [DEFAULT_SUBSTEPS, 48, 64] {
+    for substeps in [default_substeps(), 48, 64] {
         let full = full_detail_units_at(substeps);
         for fraction in [0.35, 0.6] {
             let target = fraction * full;
