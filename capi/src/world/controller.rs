@@ -59,6 +59,16 @@
 //! cuts smaller, and one near cloth's evaluation is up to a fifth of a frame. Holding the
 //! window's midrange instead of its mean at the target (so one-sided lumps straddle it) was
 //! measured and not kept: 8 of those 16 cases.
+//!
+//! # A known limit: frames shorter than the cloths' step
+//! A host at 120 Hz stepping cloths at 60 Hz: the frame budgeter spreads the cloths over the
+//! frames (`FrameBudgeter::step_cloths`; each frame steps about half the cloth work, the two
+//! frames of a pair within 8% of each other on 90% of pairs), counts a staggered cloth's cost
+//! at its rate per frame, and its transitions at theirs. On the world tests' scene (32
+//! substeps, targets scaled to the 120 Hz full-detail frame) frames within ±10% from frame 60
+//! went from none (every cloth stepped on every other frame) to 61–79% at 120 Hz, 5–45% at
+//! 144 Hz and 20–40% at 240 Hz; it does not settle: the cuts move half as fast per frame, the
+//! projections stay ahead of them, and the cost rests at 0.85–0.95 of the target.
 
 use std::sync::Arc;
 

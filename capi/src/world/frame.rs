@@ -127,6 +127,13 @@ struct ObjectState {
     seen: u64,
     /// The evaluation phase it was given (see `balance_phases`).
     phase: Option<u32>,
+    /// The step group it was given, of how many (see `stagger_steps`).
+    stagger: Option<(u32, u32)>,
+    /// The settled cost of its last step, cost units (a staggered cloth's estimate between
+    /// its steps).
+    step_settled_units: f64,
+    /// Time its regroupings (`stagger_steps`) added to what it owes, in all, s.
+    regrouped: f64,
 }
 
 impl Default for ObjectState {
@@ -136,6 +143,9 @@ impl Default for ObjectState {
             debt: 0.0,
             seen: u64::MAX,
             phase: None,
+            stagger: None,
+            step_settled_units: 0.0,
+            regrouped: 0.0,
         }
     }
 }
@@ -364,6 +374,8 @@ impl FrameBudgeter {
 
     /// Steps every cloth through `dt` seconds of simulated time (as many of its own solver
     /// steps as fit, at most `max_cloth_steps`), seen through `view`, the cloths in parallel.
+    /// Frames shorter than a cloth's step (a 120 Hz host, 60 Hz cloths) spread the cloths'
+    /// steps over the frames, each within a step of the world's time (see `stagger_steps`).
     /// Each cloth's detail follows its share first. A cloth that fails is reported by
     /// [`FrameBudgeter::end_frame`]; the others still step.
     pub fn step_cloths<'a>(
@@ -495,19 +507,8 @@ impl FrameBudgeter {
     ) -> Vec<ClothJob<'a>> {
         let mut jobs: Vec<ClothJob<'a>> = Vec::new();
         for (key, cloth) in cloths {
-            let frames = self.frames;
-            let max_steps = self.settings.max_cloth_steps;
             let state = self.objects.entry(key).or_default();
-            state.seen = frames;
-            let cloth_dt = cloth.body().settings().solver.dt as f64;
-            let owed = state.debt + dt as f64;
-            let mut steps = (owed / cloth_dt + 1e-6).floor().max(0.0) as u32;
-            if steps > max_steps {
-                steps = max_steps;
-                state.debt = 0.0;
-            } else {
-                state.debt = (owed - steps as f64 * cloth_dt).max(0.0);
-            }
+            state.seen = self.frames;
             let share = state.share;
             let bound = self.bound_for(share, frame);
             if let Err(e) = apply_cloth_share(cloth, share, bound) {
@@ -516,11 +517,35 @@ impl FrameBudgeter {
             jobs.push(ClothJob {
                 key,
                 cloth,
-                steps,
+                steps: 0,
                 bound: bound.unwrap_or(0.0),
                 share,
                 outcome: Ok(StepCost::default()),
             });
+        }
+        if (self.frames - 1).is_multiple_of(self.settings.update_frames as u64) {
+            self.stagger_steps(&jobs, dt);
+        }
+        let max_steps = self.settings.max_cloth_steps;
+        for job in &mut jobs {
+            let state = self.objects.entry(job.key).or_default();
+            let cloth_dt = job.cloth.body().settings().solver.dt as f64;
+            let owed = state.debt + dt as f64;
+            let mut steps = (owed / cloth_dt + 1e-6).floor().max(0.0) as u32;
+            // A staggered cloth may owe less than nothing: it waits a cycle more (see
+            // `stagger_steps`).
+            let least = if state.stagger.is_some() {
+                -cloth_dt
+            } else {
+                0.0
+            };
+            if steps > max_steps {
+                steps = max_steps;
+                state.debt = 0.0;
+            } else {
+                state.debt = (owed - steps as f64 * cloth_dt).max(least);
+            }
+            job.steps = steps;
         }
         if (self.frames - 1).is_multiple_of(self.settings.update_frames as u64) {
             self.balance_phases(&mut jobs);
@@ -532,7 +557,7 @@ impl FrameBudgeter {
     }
 
     /// Counts what the cloths did into the frame.
-    fn account_cloths(&self, frame: &mut Frame, jobs: Vec<ClothJob<'_>>) {
+    fn account_cloths(&mut self, frame: &mut Frame, jobs: Vec<ClothJob<'_>>) {
         for job in jobs {
             let work = match job.outcome {
                 Ok(w) => w,
@@ -546,11 +571,24 @@ impl FrameBudgeter {
             let units = work.units;
             // What the settled part of a step will cost once the cut reaches the node count the
             // last evaluation chose (see `FrameCost`); evaluations and transitions fluctuate.
+            // A cloth staggered over `m` frames (`stagger_steps`) steps on one of them: its
+            // settled cost counts at its rate per frame, its last step's over `m`, on every
+            // frame, so the estimate does not swing with which group stepped last.
+            let state = self.objects.entry(job.key).or_default();
+            let (settled, steps_per_frame) = match state.stagger {
+                Some((m, _)) if m >= 2 => {
+                    if work.steps > 0 {
+                        state.step_settled_units = work.settled_units / work.steps as f64;
+                    }
+                    (state.step_settled_units / m as f64, 1.0 / m as f64)
+                }
+                _ => (work.settled_units, work.steps as f64),
+            };
             let chosen = c.stats().projected_nodes;
             let committed = if c.feedback().is_some() && chosen > 0 && nodes > 0.0 {
-                work.settled_units * (chosen as f64 / nodes).min(full_ratio(c))
+                settled * (chosen as f64 / nodes).min(full_ratio(c))
             } else {
-                work.settled_units
+                settled
             };
             frame.committed_units += committed;
             frame.fluctuating_units += units - work.settled_units;
@@ -559,10 +597,10 @@ impl FrameBudgeter {
                 && nodes > 0.0
             {
                 // The fixed cost of a step does not scale with the nodes.
-                let fixed = work.steps as f64 * self.settings.cost.cloth.fixed * 1e9;
+                let fixed = steps_per_frame * self.settings.cost.cloth.fixed * 1e9;
                 frame.responses.push(ClothResponse {
                     curve: curve.clone(),
-                    units_per_node: (work.settled_units - fixed).max(0.0) / nodes,
+                    units_per_node: (settled - fixed).max(0.0) / nodes,
                     weight,
                     full_nodes: c.hierarchy().vertex_count() as f64,
                 });
@@ -676,9 +714,18 @@ impl FrameBudgeter {
             return Ok(());
         }
         let shared = |j: &ClothJob<'_>| matches!(j.share, BudgetShare::Shared { .. });
+        // A staggered cloth's transitions cost the frames it steps on, one in `m`.
+        let per_frame = |j: &ClothJob<'_>| {
+            let m = self
+                .objects
+                .get(&j.key)
+                .and_then(|s| s.stagger)
+                .map_or(1, |s| s.0);
+            1.0 / m.max(1) as f64
+        };
         let in_flight: f64 = jobs
             .iter()
-            .map(|j| j.cloth.interpolations() as f64 * per_transition(j))
+            .map(|j| j.cloth.interpolations() as f64 * per_transition(j) * per_frame(j))
             .sum();
         // Unspent budget is room too: a cut far under its target may move fast. Under a
         // wall-clock millisecond target the time left is converted at what one more unit costs
@@ -709,7 +756,7 @@ impl FrameBudgeter {
                 continue;
             };
             let auto = FeedbackSettings { max_ops: 0, ..f };
-            let ops = (fair / per_transition(j)).floor() as usize;
+            let ops = (fair / (per_transition(j) * per_frame(j))).floor() as usize;
             let each = ops.clamp(1, auto.ops_per_evaluation(j.cloth.node_count()));
             if f.max_ops != each {
                 j.cloth
@@ -719,29 +766,120 @@ impl FrameBudgeter {
         Ok(())
     }
 
-    /// Spreads the cloths' feedback evaluations over the phases of the interval so that every
-    /// frame evaluates about as many nodes: an evaluation costs about as much as a step, and
-    /// all cloths evaluating on the same frame make every k-th frame twice as long. Largest
-    /// cloth first into the phase with the fewest nodes so far (longest-processing-time
-    /// scheduling), by the node counts now, ties by key: deterministic. Run at the first frame
-    /// of each controller window, as the cuts change.
+    /// Spreads the cloths' solver steps over the frames when a frame is shorter than their step
+    /// (a 120 Hz host stepping 60 Hz cloths): with `m` frames per step (the ratio rounded), each
+    /// cloth joins one of `m` groups that step on different frames, largest first (links and
+    /// nodes now, ties by key: deterministic) into the group with the least work, so every
+    /// frame steps about `1/m` of the cloth work instead of all of it on every `m`-th frame and
+    /// none between. A cloth given a new group has its owed time set so that it steps on the
+    /// group's frames: of the two settings one cloth step apart, the one that keeps the time
+    /// its regroupings added or dropped in all nearest zero, so its simulated time never
+    /// drifts from the world's by more than a step however often it is regrouped. Frames as
+    /// long as a step or longer (`m` = 1) are left alone. Run at the first frame of each
+    /// controller window, as the cuts change.
+    fn stagger_steps(&mut self, jobs: &[ClothJob<'_>], dt: f32) {
+        if dt.is_nan() || dt <= 0.0 {
+            return;
+        }
+        let ratio = |j: &ClothJob<'_>| {
+            let r = (j.cloth.body().settings().solver.dt / dt).round();
+            if r.is_finite() && r >= 1.0 {
+                r.min(1e6) as u32
+            } else {
+                1
+            }
+        };
+        let work = |j: &ClothJob<'_>| j.cloth.link_count() + j.cloth.node_count();
+        let mut order = Vec::new();
+        for (i, job) in jobs.iter().enumerate() {
+            if ratio(job) >= 2 {
+                order.push(i);
+            } else if let Some(state) = self.objects.get_mut(&job.key) {
+                state.stagger = None;
+            }
+        }
+        order.sort_by_key(|&i| {
+            (
+                ratio(&jobs[i]),
+                std::cmp::Reverse(work(&jobs[i])),
+                jobs[i].key,
+            )
+        });
+        // Work per (frames per step, group).
+        let mut load: BTreeMap<(u32, u32), usize> = BTreeMap::new();
+        for i in order {
+            let (job, m) = (&jobs[i], ratio(&jobs[i]));
+            let load_of = |g: u32| load.get(&(m, g)).copied().unwrap_or(0);
+            let lightest = (0..m).min_by_key(|&g| (load_of(g), g)).unwrap_or(0);
+            // A cloth stays in its group unless that group already carries more than the
+            // lightest by the cloth's own work (moving it then evens the two): each regrouping
+            // shifts its steps by up to a frame.
+            let group = match self.objects.get(&job.key).and_then(|s| s.stagger) {
+                Some((had, g)) if had == m && load_of(g) <= load_of(lightest) + work(job) => g,
+                _ => lightest,
+            };
+            *load.entry((m, group)).or_default() += work(job);
+            let state = self.objects.entry(job.key).or_default();
+            if state.stagger != Some((m, group)) {
+                // Owed time with which it steps on the frames `f` with `(f + group) % m ==
+                // m − 1`, or that less one step (it waits a cycle more) or plus one (it takes
+                // a step more on the way).
+                let cloth_dt = job.cloth.body().settings().solver.dt as f64;
+                let on = ((self.frames + group as u64) % m as u64) as f64 * dt as f64;
+                let debt = [on, on - cloth_dt, on + cloth_dt]
+                    .into_iter()
+                    .min_by(|a, b| {
+                        let drift = |d: f64| (state.regrouped + d - state.debt).abs();
+                        drift(*a).total_cmp(&drift(*b))
+                    })
+                    .unwrap_or(on);
+                state.regrouped += debt - state.debt;
+                state.debt = debt;
+                state.stagger = Some((m, group));
+            }
+        }
+    }
+
+    /// Spreads the cloths' feedback evaluations over the frames so that every frame evaluates
+    /// about as many nodes: an evaluation costs about as much as a step, and all cloths
+    /// evaluating on the same frame make every k-th frame twice as long. Largest cloth first
+    /// (by the node counts now, ties by key: deterministic) gets the phase whose evaluations
+    /// land on the frames with the fewest nodes so far (longest-processing-time scheduling),
+    /// ties to the lowest phase. A cloth evaluates every `interval` of its steps, and one
+    /// staggered to step every `m` frames (`stagger_steps`) every `m · interval` frames, so the
+    /// frame is the slot: the frames until its next evaluation under each phase, within its
+    /// cycle of `m · interval` (cloths of different cycles do not share slots). Run at the
+    /// first frame of each controller window, as the cuts change.
     fn balance_phases(&mut self, jobs: &mut [ClothJob<'_>]) {
         let mut order: Vec<usize> = (0..jobs.len()).collect();
         order.sort_by_key(|&i| (std::cmp::Reverse(jobs[i].cloth.node_count()), jobs[i].key));
-        let mut load: Vec<u64> = Vec::new();
+        // Nodes evaluated per (cycle, frames from now).
+        let mut load: BTreeMap<(u64, u64), u64> = BTreeMap::new();
         for i in order {
             let job = &mut jobs[i];
-            let interval = job.cloth.feedback().map_or(1, |f| f.interval).max(1) as usize;
-            if load.len() < interval {
-                load.resize(interval, 0);
-            }
-            let phase = (0..interval).min_by_key(|&p| (load[p], p)).unwrap_or(0);
-            load[phase] += job.cloth.node_count() as u64;
+            let interval = job.cloth.feedback().map_or(1, |f| f.interval).max(1) as u64;
             let state = self.objects.entry(job.key).or_default();
-            if state.phase != Some(phase as u32) {
+            let (m, group) = state.stagger.map_or((1, 0), |(m, g)| (m as u64, g as u64));
+            // Frames until its next step: this frame when it steps now, else its group's next.
+            let first = if job.steps > 0 {
+                0
+            } else {
+                (m - 1 + m - (self.frames + group) % m) % m
+            };
+            let steps = job.cloth.stats().steps;
+            let slot = |p: u64| {
+                let until = (interval - (steps + p) % interval) % interval;
+                (m * interval, first + until * m)
+            };
+            let phase = (0..interval)
+                .min_by_key(|&p| (load.get(&slot(p)).copied().unwrap_or(0), p))
+                .unwrap_or(0);
+            *load.entry(slot(phase)).or_default() += job.cloth.node_count() as u64;
+            let phase = phase as u32;
+            if state.phase != Some(phase) {
                 // Moving a cloth's phase shifts its next evaluation by less than an interval.
-                job.cloth.set_evaluation_phase(phase as u32);
-                state.phase = Some(phase as u32);
+                job.cloth.set_evaluation_phase(phase);
+                state.phase = Some(phase);
             }
         }
     }
