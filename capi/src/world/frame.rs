@@ -776,7 +776,10 @@ impl FrameBudgeter {
     /// its regroupings added or dropped in all nearest zero, so its simulated time never
     /// drifts from the world's by more than a step however often it is regrouped. Frames as
     /// long as a step or longer (`m` = 1) are left alone. Run at the first frame of each
-    /// controller window, as the cuts change.
+    /// controller window, as the cuts change. The groups' frames are exact when a step is a
+    /// whole number of frames; with frame times that vary (or a ratio such as 2.4 at 144 Hz)
+    /// the cloths still step when they owe a step, and groups can drift onto the same frames
+    /// until a regrouping separates them.
     fn stagger_steps(&mut self, jobs: &[ClothJob<'_>], dt: f32) {
         if dt.is_nan() || dt <= 0.0 {
             return;
