@@ -523,7 +523,9 @@ impl FrameBudgeter {
                 outcome: Ok(StepCost::default()),
             });
         }
-        if (self.frames - 1).is_multiple_of(self.settings.update_frames as u64) {
+        // Groups and phases are redrawn at the first frame of each controller window.
+        let window_start = (self.frames - 1).is_multiple_of(self.settings.update_frames as u64);
+        if window_start {
             self.stagger_steps(&jobs, dt);
         }
         let max_steps = self.settings.max_cloth_steps;
@@ -547,7 +549,7 @@ impl FrameBudgeter {
             }
             job.steps = steps;
         }
-        if (self.frames - 1).is_multiple_of(self.settings.update_frames as u64) {
+        if window_start {
             self.balance_phases(&mut jobs);
         }
         if let Err(e) = self.cap_transitions(&mut jobs) {

@@ -481,14 +481,15 @@ impl Feedback {
             settings::ERROR_BOUND_MERGE
         };
         // The curve a world reads (only under its shared bound): every candidate at any bound.
-        let mut curve = match self.curve.take() {
+        let mut shared_curve = match self.curve.take() {
             _ if !self.shared_bound => None,
-            c => {
-                let mut c = c.unwrap_or_default();
-                std::sync::Arc::make_mut(&mut c).start(cut.len());
-                Some(c)
-            }
+            c => Some(c.unwrap_or_default()),
         };
+        // Unshared once here (the world dropped its handle after the last frame), not per event.
+        let mut curve = shared_curve.as_mut().map(std::sync::Arc::make_mut);
+        if let Some(c) = curve.as_mut() {
+            c.start(cut.len());
+        }
         for (i, &node) in nodes.iter().enumerate() {
             let px = self.deviation.particle_px[i];
             if cut.is_on_cut(node) {
@@ -507,7 +508,7 @@ impl Feedback {
                 if let Some(c) = curve.as_mut().filter(|_| refinable) {
                     let leaves = h.vertices(node).len() as u64;
                     let r = settings::ERROR_BOUND_REFINE;
-                    std::sync::Arc::make_mut(c).add_refine(px, h.level(node), leaves, r);
+                    c.add_refine(px, h.level(node), leaves, r);
                 }
                 if px > refine_above && refinable {
                     budget += h.child_count(node) as i64 - 1;
@@ -555,7 +556,7 @@ impl Feedback {
             let coarsenable = cut.can_coarse(h, parent).is_ok();
             if let Some(c) = curve.as_mut().filter(|_| coarsenable && merges) {
                 let children = h.child_count(parent) as u64;
-                std::sync::Arc::make_mut(c).add_merge(px, children, merge_fraction);
+                c.add_merge(px, children, merge_fraction);
             }
             let mergeable = px < merge_fraction * bound && coarsenable;
             if !merges || recent(parent) == Recent::Refined {
@@ -574,10 +575,10 @@ impl Feedback {
                 projected -= h.child_count(parent) as i64 - 1;
             }
         }
-        if let Some(mut c) = curve {
-            std::sync::Arc::make_mut(&mut c).finish();
-            self.curve = Some(c);
+        if let Some(c) = curve {
+            c.finish();
         }
+        self.curve = shared_curve;
         (budget.max(1) as usize, projected.max(1) as usize)
     }
 }
