@@ -643,7 +643,8 @@ typedef struct SlodWorldBudgetDesc {
    */
   float max_error_px;
   /**
-   * Frames between controller updates (>= 1; the cloths' feedback interval).
+   * Frames between controller updates (>= 1; the cloths' feedback interval; times the frames
+   * per cloth step when frames are shorter than the cloths' step).
    */
   uint32_t update_frames;
   /**
@@ -1843,6 +1844,28 @@ SlodResult slod_cloth_destroy(struct SlodWorld *world, struct SlodClothId cloth)
  * `world` NULL or a live world.
  */
 SlodResult slod_cloth_step(struct SlodWorld *world, struct SlodClothId cloth);
+
+/**
+ * Runs now the feedback evaluation the cloth's next `slod_cloth_step` is due to run, and that
+ * step then skips it; writes whether one ran (false: none due, or one already ran ahead).
+ *
+ * For a host whose frames are shorter than the cloth's step (a 120 Hz host stepping a 60 Hz
+ * cloth every other frame): an evaluation costs most of a step, and run in the step's frame
+ * it makes that frame the longest; run in the frame between, it evens the two. Nothing of the
+ * cloth moves between its steps, so the evaluation measures the state the step would, seen
+ * through the world's current view, and its refines and coarses begin now, to blend from the
+ * next step on. Worlds under a frame budget (`slod_world_set_budget`) do this themselves.
+ * Threads: mutates the world; with feedback `parallel` the salience stage uses the world's
+ * worker threads. Errors: `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_REFUSED` if the feedback stage
+ * refused its inputs (`*out_evaluated` then false); `SLOD_RESULT_NULL_ARGUMENT` for a NULL
+ * `out_evaluated` (nothing run).
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_evaluated` NULL or valid for a write.
+ */
+SlodResult slod_cloth_evaluate_ahead(struct SlodWorld *world,
+                                     struct SlodClothId cloth,
+                                     bool *out_evaluated);
 
 /**
  * Begins refining hierarchy node `node` (replacing it by its children over `blend_steps` steps).

@@ -82,6 +82,9 @@ pub struct AdaptiveCloth {
     /// Offset of this cloth's evaluation steps within the feedback interval (see
     /// [`AdaptiveCloth::set_evaluation_phase`]).
     evaluation_phase: u32,
+    /// Wall seconds and nodes of the feedback stage [`AdaptiveCloth::evaluate_ahead`] ran for
+    /// the next step (`Some` until that step, which then skips its own).
+    evaluated_ahead: Option<(f64, u64)>,
 }
 
 /// The least time a node stays merged before the loop refines it again (unless it touches a
@@ -148,6 +151,7 @@ impl AdaptiveCloth {
             clock: StepClock::Wall,
             contact: ContactMemory::default(),
             evaluation_phase: 0,
+            evaluated_ahead: None,
         })
     }
 
@@ -381,17 +385,13 @@ impl AdaptiveCloth {
     /// budget once per interval, before the evaluation (see [`super::TimeController`]).
     pub fn step(&mut self, view: &View) -> Result<(), ClothError> {
         let start = Instant::now();
-        let mut eval_seconds = None;
         let mut work = StepWork::default();
         let due = self.evaluation_due();
+        // An evaluation run ahead is this step's (see `evaluate_ahead`): reported with it.
+        let ahead = self.evaluated_ahead.take();
+        let mut eval_seconds = ahead.map(|(s, _)| s);
         if due {
-            if let Some(c) = self.feedback.as_mut().and_then(|f| f.controller.as_mut()) {
-                c.end_interval();
-            }
-            work.evaluated_nodes = self.body.particle_count() as u64;
-            let t = Instant::now();
-            self.evaluate(view)?;
-            eval_seconds = Some(t.elapsed().as_secs_f64());
+            eval_seconds = Some(self.feedback_stage(view, &mut work)?);
         }
         let solver = self.body.settings().solver;
         let passes = solver.substeps as u64;
@@ -405,11 +405,20 @@ impl AdaptiveCloth {
         self.contact.after_step(&self.body);
         self.stats.steps += 1;
         let (seconds, eval_seconds) = match self.clock {
-            StepClock::Wall => (start.elapsed().as_secs_f64(), eval_seconds),
-            StepClock::Model(m) => (
-                m.seconds(&work),
-                eval_seconds.map(|_| m.evaluation_seconds(&work)),
+            StepClock::Wall => (
+                start.elapsed().as_secs_f64() + ahead.map_or(0.0, |(s, _)| s),
+                eval_seconds,
             ),
+            StepClock::Model(m) => {
+                let evaluated = StepWork {
+                    evaluated_nodes: work.evaluated_nodes + ahead.map_or(0, |(_, n)| n),
+                    ..work
+                };
+                (
+                    m.seconds(&evaluated),
+                    eval_seconds.map(|_| m.evaluation_seconds(&evaluated)),
+                )
+            }
         };
         self.stats.last_step_seconds = seconds;
         if let Some(e) = eval_seconds {
@@ -424,6 +433,40 @@ impl AdaptiveCloth {
             });
         }
         Ok(())
+    }
+
+    /// The feedback stage a step runs when it is due: the time controller's interval closed,
+    /// the evaluation (`work` gets its nodes). Returns its wall seconds.
+    fn feedback_stage(&mut self, view: &View, work: &mut StepWork) -> Result<f64, ClothError> {
+        if let Some(c) = self.feedback.as_mut().and_then(|f| f.controller.as_mut()) {
+            c.end_interval();
+        }
+        work.evaluated_nodes = self.body.particle_count() as u64;
+        let t = Instant::now();
+        self.evaluate(view)?;
+        Ok(t.elapsed().as_secs_f64())
+    }
+
+    /// Runs the feedback stage the next [`AdaptiveCloth::step`] is due to run now, seeing the
+    /// cloth through `view`, and that step then skips it; returns its work (only
+    /// [`StepWork::evaluated_nodes`] set), or `None` when no evaluation is due (or one already
+    /// ran ahead). Nothing of the cloth moves between two steps, so the evaluation measures the
+    /// same state and plans the same operations as the step would (seen through this `view`,
+    /// under the budget set now), and the operations begin now to blend from that step on. A
+    /// host whose frames are shorter than the cloth's step uses it to run a cloth's evaluation
+    /// on a frame in which the cloth does not step (the world does: an evaluation costs most
+    /// of a step, and on the stepping frame it made that frame the longest of its cycle).
+    /// Its time is reported with the next step (`last_eval_seconds`, and the time budget's
+    /// sample, whose step time includes it); that step's [`ClothStats::last_work`] does not
+    /// count it (it was charged here).
+    pub fn evaluate_ahead(&mut self, view: &View) -> Result<Option<StepWork>, ClothError> {
+        if !self.evaluation_due() {
+            return Ok(None);
+        }
+        let mut work = StepWork::default();
+        let seconds = self.feedback_stage(view, &mut work)?;
+        self.evaluated_ahead = Some((seconds, work.evaluated_nodes));
+        Ok(Some(work))
     }
 
     /// Runs the feedback stage once now, seeing the cloth through `view`: salience, evaluator,
@@ -609,13 +652,15 @@ impl AdaptiveCloth {
         &mut self.contact
     }
 
-    /// Whether the next [`AdaptiveCloth::step`] runs the feedback stage (feedback on, and the
-    /// step count at the cloth's evaluation phase).
+    /// Whether the next [`AdaptiveCloth::step`] runs the feedback stage (feedback on, the
+    /// step count at the cloth's evaluation phase, and the stage not already run ahead of it by
+    /// [`AdaptiveCloth::evaluate_ahead`]).
     pub fn evaluation_due(&self) -> bool {
-        self.feedback.as_ref().is_some_and(|f| {
-            (self.stats.steps + self.evaluation_phase as u64)
-                .is_multiple_of(f.settings.interval as u64)
-        })
+        self.evaluated_ahead.is_none()
+            && self.feedback.as_ref().is_some_and(|f| {
+                (self.stats.steps + self.evaluation_phase as u64)
+                    .is_multiple_of(f.settings.interval as u64)
+            })
     }
 
     /// Refine/coarse transitions being blended now (the paper's "interpolations").

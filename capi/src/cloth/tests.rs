@@ -62,6 +62,59 @@ fn feedback_runs_are_bit_identical() {
     assert_eq!(bits(&a), bits(&b));
 }
 
+/// An evaluation run ahead of its step (`evaluate_ahead`, as a world whose frames are shorter
+/// than the cloth's step does on a frame the cloth does not step in) is the step's own: seen
+/// through the same view, the run is bit-identical to one that evaluates inside its steps —
+/// positions, cut, operations, and the time budget's samples (modelled clock) — and a step
+/// after it does not evaluate again. Not due, or already run, it does nothing.
+#[test]
+fn evaluation_ahead_is_the_steps_own() {
+    let run = |ahead: bool| {
+        let mut c = net(17, 0, TreeCutSettings::default());
+        c.set_step_clock(StepClock::Model(CostModel::default()))
+            .unwrap();
+        c.set_feedback(Some(FeedbackSettings {
+            budget: ClothBudget::TargetStepMs(0.05),
+            interval: 3,
+            ..FeedbackSettings::default()
+        }))
+        .unwrap();
+        let mut ran = 0;
+        for _ in 0..90 {
+            if ahead {
+                let due = c.evaluation_due();
+                let work = c.evaluate_ahead(&camera()).unwrap();
+                assert_eq!(work.is_some(), due);
+                if let Some(w) = work {
+                    ran += 1;
+                    assert_eq!(w.evaluated_nodes, c.node_count() as u64);
+                    assert!(!c.evaluation_due());
+                    assert!(c.evaluate_ahead(&camera()).unwrap().is_none());
+                }
+            }
+            c.step(&camera()).unwrap();
+            if ahead {
+                assert_eq!(c.stats().last_work.evaluated_nodes, 0);
+            }
+        }
+        let mut stats = *c.stats();
+        stats.last_work = Default::default();
+        (
+            c.body().particle_positions().to_vec(),
+            c.body().cut().active().to_vec(),
+            stats,
+            ran,
+        )
+    };
+    let (pa, cut_a, sa, ran) = run(true);
+    let (pb, cut_b, sb, _) = run(false);
+    assert_eq!(ran, 30);
+    assert!(sa.refines + sa.coarses > 0);
+    assert_eq!(cut_a, cut_b);
+    assert_eq!(sa, sb);
+    assert_eq!(pa, pb);
+}
+
 /// From an over-budget start the loop coarsens until the cut fits, then stays within it, while
 /// mass is conserved throughout.
 #[test]

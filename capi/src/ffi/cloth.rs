@@ -641,12 +641,58 @@ pub unsafe extern "C" fn slod_cloth_step(world: *mut SlodWorld, cloth: SlodCloth
     boundary(|| {
         // SAFETY: caller contract: NULL or a live world used by this thread only.
         let world = unsafe { arg_mut(world, "world") }?;
-        super::collider::follow_character(world, cloth)?;
-        let view = world.view;
-        let pool = world.pool.as_ref();
-        let entry = world.cloths.get_mut(RawId::from(cloth), "cloth")?;
-        let c = &mut entry.cloth;
-        SlodWorld::run(pool, || c.step(&view)).map_err(cloth_error)
+        on_world_threads(world, cloth, |c, view| c.step(view))
+    })
+}
+
+/// Runs `f` on a cloth with the world's view, on the world's threads, after moving a worn
+/// cloth's bone pins and colliders to its character's pose (what a step or its evaluation sees).
+fn on_world_threads<T: Send>(
+    world: &mut SlodWorld,
+    cloth: SlodClothId,
+    f: impl FnOnce(&mut AdaptiveCloth, &salience::View) -> Result<T, ClothError> + Send,
+) -> Result<T, FfiError> {
+    super::collider::follow_character(world, cloth)?;
+    let view = world.view;
+    let pool = world.pool.as_ref();
+    let entry = world.cloths.get_mut(RawId::from(cloth), "cloth")?;
+    let c = &mut entry.cloth;
+    SlodWorld::run(pool, || f(c, &view)).map_err(cloth_error)
+}
+
+/// Runs now the feedback evaluation the cloth's next `slod_cloth_step` is due to run, and that
+/// step then skips it; writes whether one ran (false: none due, or one already ran ahead).
+///
+/// For a host whose frames are shorter than the cloth's step (a 120 Hz host stepping a 60 Hz
+/// cloth every other frame): an evaluation costs most of a step, and run in the step's frame
+/// it makes that frame the longest; run in the frame between, it evens the two. Nothing of the
+/// cloth moves between its steps, so the evaluation measures the state the step would, seen
+/// through the world's current view, and its refines and coarses begin now, to blend from the
+/// next step on. Worlds under a frame budget (`slod_world_set_budget`) do this themselves.
+/// Threads: mutates the world; with feedback `parallel` the salience stage uses the world's
+/// worker threads. Errors: `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_REFUSED` if the feedback stage
+/// refused its inputs (`*out_evaluated` then false); `SLOD_RESULT_NULL_ARGUMENT` for a NULL
+/// `out_evaluated` (nothing run).
+///
+/// # Safety
+/// `world` NULL or a live world; `out_evaluated` NULL or valid for a write.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn slod_cloth_evaluate_ahead(
+    world: *mut SlodWorld,
+    cloth: SlodClothId,
+    out_evaluated: *mut bool,
+) -> SlodResult {
+    boundary(|| {
+        if out_evaluated.is_null() {
+            return Err(FfiError::Null("out_evaluated"));
+        }
+        // SAFETY: caller contract: NULL or a live world used by this thread only.
+        let world = unsafe { arg_mut(world, "world") }?;
+        // SAFETY: non-NULL (checked above), valid for a write per the caller contract.
+        unsafe { out_evaluated.write(false) };
+        let ran = on_world_threads(world, cloth, |c, view| c.evaluate_ahead(view))?;
+        // SAFETY: as above.
+        unsafe { write_out(out_evaluated, ran.is_some(), "out_evaluated") }
     })
 }
 

@@ -288,3 +288,58 @@ fn cloth_reconstruction_mode_is_checked_and_reaches_the_cloth() {
         "smooth and rigid place vertices differently"
     );
 }
+
+/// `slod_cloth_evaluate_ahead` runs the evaluation the next step is due to run, once, and the
+/// run is the same as stepping alone; a NULL output is refused with nothing run.
+#[test]
+fn evaluation_ahead_is_the_steps_own_across_the_abi() {
+    let w = World::new();
+    let desc = SlodClothDesc {
+        columns: 17,
+        rows: 17,
+        initial_level: 1,
+        ..slod_default_cloth_desc()
+    };
+    let feedback = slod_default_feedback_desc();
+    let mut ids = [SlodClothId::default(); 2];
+    // SAFETY: live world, valid descs and out pointers.
+    unsafe {
+        for id in &mut ids {
+            assert_eq!(slod_cloth_create_grid(w.0, &desc, id), SlodResult::Ok);
+            assert_eq!(slod_cloth_set_feedback(w.0, *id, &feedback), SlodResult::Ok);
+        }
+    }
+    let (mut ran, mut evaluated) = (0, false);
+    for step in 0..20 {
+        // SAFETY: live world, ids of it, valid out pointers.
+        unsafe {
+            assert_eq!(
+                slod_cloth_evaluate_ahead(w.0, ids[0], std::ptr::null_mut()),
+                SlodResult::NullArgument
+            );
+            assert_eq!(
+                slod_cloth_evaluate_ahead(w.0, ids[0], &mut evaluated),
+                SlodResult::Ok
+            );
+            assert_eq!(evaluated, step % feedback.interval == 0, "step {step}");
+            ran += evaluated as u32;
+            assert_eq!(
+                slod_cloth_evaluate_ahead(w.0, ids[0], &mut evaluated),
+                SlodResult::Ok
+            );
+            assert!(!evaluated, "once per step");
+            assert_eq!(slod_cloth_step(w.0, ids[0]), SlodResult::Ok);
+            assert_eq!(slod_cloth_step(w.0, ids[1]), SlodResult::Ok);
+        }
+    }
+    assert_eq!(ran, 20 / feedback.interval);
+    let positions = |id: SlodClothId| {
+        let mut out = vec![0f32; 3 * 289];
+        let mut len = 0;
+        // SAFETY: live world, a buffer of 289 positions and a valid out pointer.
+        let r = unsafe { slod_cloth_vertex_positions(w.0, id, out.as_mut_ptr(), 289, &mut len) };
+        assert_eq!((r, len), (SlodResult::Ok, 289));
+        out
+    };
+    assert_eq!(positions(ids[0]), positions(ids[1]));
+}

@@ -135,7 +135,8 @@ pub struct SlodWorldBudgetDesc {
     pub min_error_px: f32,
     /// Largest bound, px (>= min_error_px).
     pub max_error_px: f32,
-    /// Frames between controller updates (>= 1; the cloths' feedback interval).
+    /// Frames between controller updates (>= 1; the cloths' feedback interval; times the frames
+    /// per cloth step when frames are shorter than the cloths' step).
     pub update_frames: u32,
     /// Fraction of the measured log-ratio the bound moves per update, in (0, 1].
     pub gain: f32,

@@ -168,7 +168,10 @@ pub struct WorldBudget {
     /// The largest bound, px (≥ `min_error_px`).
     pub max_error_px: f32,
     /// Frames between controller updates (≥ 1); the cloths' feedback interval, so every cloth
-    /// has evaluated under a bound before it moves again.
+    /// has evaluated under a bound before it moves again. When a frame is shorter than the
+    /// cloths' step the window is this many times the frames per step (10 frames at 120 Hz
+    /// with 60 Hz cloths: the same simulated time). The cloths' step groups and evaluation
+    /// phases are redrawn every `update_frames` frames.
     pub update_frames: u32,
     /// Fraction of the measured log-ratio the bound moves per update, in (0, 1].
     pub gain: f32,

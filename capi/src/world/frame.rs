@@ -129,9 +129,15 @@ struct ObjectState {
     phase: Option<u32>,
     /// The step group it was given, of how many (see `stagger_steps`).
     stagger: Option<(u32, u32)>,
+    /// Frames before its evaluating step that a staggered cloth runs that evaluation (see
+    /// `balance_phases`; 0: in the step's frame).
+    lead: u32,
     /// The settled cost of its last step, cost units (a staggered cloth's estimate between
     /// its steps).
     step_settled_units: f64,
+    /// Solver steps per frame of a staggered cloth: the frame's `dt` over its own (at the last
+    /// `stagger_steps`; 1/2.4 at 144 Hz with 60 Hz cloths, though it joins one of 2 groups).
+    step_rate: f64,
     /// Time its regroupings (`stagger_steps`) added to what it owes, in all, s.
     regrouped: f64,
 }
@@ -144,6 +150,8 @@ impl Default for ObjectState {
             seen: u64::MAX,
             phase: None,
             stagger: None,
+            lead: 0,
+            step_rate: 1.0,
             step_settled_units: 0.0,
             regrouped: 0.0,
         }
@@ -191,6 +199,12 @@ pub struct FrameBudgeter {
     pool: Option<rayon::ThreadPool>,
     objects: BTreeMap<ObjectKey, ObjectState>,
     frames: u64,
+    /// Frames in the current controller window: `update_frames` cloth feedback intervals'
+    /// worth, so `update_frames` times the frames per cloth step when frames are shorter than
+    /// the cloths' step (see `start_window`).
+    window_frames: u32,
+    /// Frames left in the current controller window (0: the next frame starts one).
+    window_left: u32,
     /// Measured wall milliseconds per cost unit, smoothed over frames (to turn a millisecond
     /// target into units for the transition allowance).
     ms_per_unit: Option<f64>,
@@ -213,6 +227,8 @@ impl FrameBudgeter {
             settings,
             objects: BTreeMap::new(),
             frames: 0,
+            window_frames: settings.update_frames,
+            window_left: 0,
             ms_per_unit: None,
             time_fit: TimeFit::default(),
             last: WorldStepStats::default(),
@@ -243,6 +259,7 @@ impl FrameBudgeter {
             && settings.max_error_px == self.settings.max_error_px;
         if !(same_kind && same_limits) {
             self.controller = ErrorBoundController::new(&settings);
+            self.window_left = 0;
         }
         if let Some(p) = pool {
             self.warm.release();
@@ -375,7 +392,9 @@ impl FrameBudgeter {
     /// Steps every cloth through `dt` seconds of simulated time (as many of its own solver
     /// steps as fit, at most `max_cloth_steps`), seen through `view`, the cloths in parallel.
     /// Frames shorter than a cloth's step (a 120 Hz host, 60 Hz cloths) spread the cloths'
-    /// steps over the frames, each within a step of the world's time (see `stagger_steps`).
+    /// steps over the frames, each within a step of the world's time (see `stagger_steps`),
+    /// and their evaluations over all of the frames, ahead of their steps where that evens
+    /// the frames (see `balance_phases`).
     /// Each cloth's detail follows its share first. A cloth that fails is reported by
     /// [`FrameBudgeter::end_frame`]; the others still step.
     pub fn step_cloths<'a>(
@@ -518,14 +537,22 @@ impl FrameBudgeter {
                 key,
                 cloth,
                 steps: 0,
+                ahead: false,
                 bound: bound.unwrap_or(0.0),
                 share,
                 outcome: Ok(StepCost::default()),
             });
         }
-        // Groups and phases are redrawn at the first frame of each controller window.
-        let window_start = (self.frames - 1).is_multiple_of(self.settings.update_frames as u64);
-        if window_start {
+        if self.window_left == 0 {
+            self.start_window(&jobs, dt);
+        }
+        // Groups and phases are redrawn every `update_frames` frames, as the cuts change (at
+        // the controller's pace when frames are as long as the cloths' step; more often than
+        // its windows when they are shorter: redrawn every window of 10 frames at 120 Hz, the
+        // groups' work drifted apart as the cuts grew, 90% of frame pairs within 12% against
+        // 8%).
+        let redraw = (self.frames - 1).is_multiple_of(self.settings.update_frames as u64);
+        if redraw {
             self.stagger_steps(&jobs, dt);
         }
         let max_steps = self.settings.max_cloth_steps;
@@ -549,8 +576,23 @@ impl FrameBudgeter {
             }
             job.steps = steps;
         }
-        if window_start {
+        if redraw {
             self.balance_phases(&mut jobs);
+        }
+        // A staggered cloth not stepping now evaluates ahead when its next step evaluates and
+        // is no more than its lead away (with frames of varying length the step may come
+        // sooner: it then evaluates in the step, as without a lead).
+        for job in &mut jobs {
+            if let Some(state) = self.objects.get(&job.key)
+                && let Some((m, group)) = state.stagger
+                && m >= 2
+                && job.steps == 0
+                && state.lead > 0
+            {
+                let (m, group) = (m as u64, group as u64);
+                let until = (m - 1 + m - (self.frames + group) % m) % m;
+                job.ahead = until <= state.lead as u64 && job.cloth.evaluation_due();
+            }
         }
         if let Err(e) = self.cap_transitions(&mut jobs) {
             frame.fail(e);
@@ -573,16 +615,18 @@ impl FrameBudgeter {
             let units = work.units;
             // What the settled part of a step will cost once the cut reaches the node count the
             // last evaluation chose (see `FrameCost`); evaluations and transitions fluctuate.
-            // A cloth staggered over `m` frames (`stagger_steps`) steps on one of them: its
-            // settled cost counts at its rate per frame, its last step's over `m`, on every
-            // frame, so the estimate does not swing with which group stepped last.
+            // A cloth staggered over `m` frames (`stagger_steps`) steps on about one of them:
+            // its settled cost counts at its rate per frame (its last step's times the steps
+            // per frame, 1/2.4 at 144 Hz with 60 Hz cloths), on every frame, so the estimate
+            // does not swing with which group stepped last.
             let state = self.objects.entry(job.key).or_default();
             let (settled, steps_per_frame) = match state.stagger {
                 Some((m, _)) if m >= 2 => {
                     if work.steps > 0 {
                         state.step_settled_units = work.settled_units / work.steps as f64;
                     }
-                    (state.step_settled_units / m as f64, 1.0 / m as f64)
+                    let rate = state.step_rate;
+                    (state.step_settled_units * rate, rate)
                 }
                 _ => (work.settled_units, work.steps as f64),
             };
@@ -661,9 +705,15 @@ impl FrameBudgeter {
                 units: frame.stats.cost_units,
                 ms,
             };
+            // The controller's window is the budgeter's (`start_window`).
+            let window = WorldBudget {
+                update_frames: self.window_frames.max(1),
+                ..self.settings
+            };
             self.controller
-                .observe(seen, &frame.responses, target, in_ms, &self.settings);
+                .observe(seen, &frame.responses, target, in_ms, &window);
         }
+        self.window_left = self.window_left.saturating_sub(1);
         let now = self.frames;
         // Shares set since the last frame for objects not yet stepped have `seen == MAX`.
         self.objects
@@ -716,14 +766,14 @@ impl FrameBudgeter {
             return Ok(());
         }
         let shared = |j: &ClothJob<'_>| matches!(j.share, BudgetShare::Shared { .. });
-        // A staggered cloth's transitions cost the frames it steps on, one in `m`.
+        // Evaluates this frame: in a step, or ahead of one.
+        let evaluates = |j: &ClothJob<'_>| (j.steps > 0 || j.ahead) && j.cloth.evaluation_due();
+        // A staggered cloth's transitions cost the frames it steps on, about one in `m`.
         let per_frame = |j: &ClothJob<'_>| {
-            let m = self
-                .objects
+            self.objects
                 .get(&j.key)
-                .and_then(|s| s.stagger)
-                .map_or(1, |s| s.0);
-            1.0 / m.max(1) as f64
+                .filter(|s| s.stagger.is_some())
+                .map_or(1.0, |s| s.step_rate)
         };
         let in_flight: f64 = jobs
             .iter()
@@ -742,18 +792,12 @@ impl FrameBudgeter {
         .max(0.0);
         // The allowance in cost units, less what the transitions in flight spend.
         let room = (share as f64 * target + headroom - in_flight).max(0.0);
-        let due = jobs
-            .iter()
-            .filter(|j| shared(j) && j.cloth.evaluation_due())
-            .count();
+        let due = jobs.iter().filter(|j| shared(j) && evaluates(j)).count();
         if due == 0 {
             return Ok(());
         }
         let fair = room / due as f64;
-        for j in jobs
-            .iter_mut()
-            .filter(|j| shared(j) && j.cloth.evaluation_due())
-        {
+        for j in jobs.iter_mut().filter(|j| shared(j) && evaluates(j)) {
             let Some(&f) = j.cloth.feedback() else {
                 continue;
             };
@@ -766,6 +810,22 @@ impl FrameBudgeter {
             }
         }
         Ok(())
+    }
+
+    /// Starts a controller window: `update_frames` frames, times the frames per cloth step
+    /// when a frame is shorter than the cloths' step (the largest ratio, rounded, over the
+    /// cloths). The window is what lets every cloth answer a bound before it moves again (a
+    /// cloth evaluates every `interval` of its steps); at 120 Hz with 60 Hz cloths a window of
+    /// `update_frames` frames saw half of them evaluate, the bound moved on the other half's
+    /// stale curves, and it swung by 30–70% from update to update on the world tests' scene.
+    fn start_window(&mut self, jobs: &[ClothJob<'_>], dt: f32) {
+        let per_step = jobs
+            .iter()
+            .map(|j| frames_per_step(j.cloth, dt))
+            .max()
+            .unwrap_or(1);
+        self.window_frames = self.settings.update_frames.saturating_mul(per_step);
+        self.window_left = self.window_frames;
     }
 
     /// Spreads the cloths' solver steps over the frames when a frame is shorter than their step
@@ -786,14 +846,7 @@ impl FrameBudgeter {
         if dt.is_nan() || dt <= 0.0 {
             return;
         }
-        let ratio = |j: &ClothJob<'_>| {
-            let r = (j.cloth.body().settings().solver.dt / dt).round();
-            if r.is_finite() && r >= 1.0 {
-                r.min(1e6) as u32
-            } else {
-                1
-            }
-        };
+        let ratio = |j: &ClothJob<'_>| frames_per_step(j.cloth, dt);
         let work = |j: &ClothJob<'_>| j.cloth.link_count() + j.cloth.node_count();
         let mut order = Vec::new();
         for (i, job) in jobs.iter().enumerate() {
@@ -825,6 +878,7 @@ impl FrameBudgeter {
             };
             *load.entry((m, group)).or_default() += work(job);
             let state = self.objects.entry(job.key).or_default();
+            state.step_rate = dt as f64 / job.cloth.body().settings().solver.dt as f64;
             if state.stagger != Some((m, group)) {
                 // Owed time with which it steps on the frames `f` with `(f + group) % m ==
                 // m − 1`, or that less one step (it waits a cycle more) or plus one (it takes
@@ -845,21 +899,46 @@ impl FrameBudgeter {
         }
     }
 
-    /// Spreads the cloths' feedback evaluations over the frames so that every frame evaluates
-    /// about as many nodes: an evaluation costs about as much as a step, and all cloths
-    /// evaluating on the same frame make every k-th frame twice as long. Largest cloth first
-    /// (by the node counts now, ties by key: deterministic) gets the phase whose evaluations
-    /// land on the frames with the fewest nodes so far (longest-processing-time scheduling),
-    /// ties to the lowest phase. A cloth evaluates every `interval` of its steps, and one
-    /// staggered to step every `m` frames (`stagger_steps`) every `m · interval` frames, so the
-    /// frame is the slot: the frames until its next evaluation under each phase, within its
-    /// cycle of `m · interval` (cloths of different cycles do not share slots). Run at the
-    /// first frame of each controller window, as the cuts change.
+    /// Spreads the cloths' feedback evaluations over the frames so that every frame costs
+    /// about as much: an evaluation costs most of a step, and all cloths evaluating on the same
+    /// frame make every k-th frame twice as long. Largest cloth first (by the node counts now,
+    /// ties by key: deterministic) gets the phase whose evaluation lands on the frame with the
+    /// least cost so far (longest-processing-time scheduling; an evaluation costs
+    /// `CostModel::evaluated_node` per node), ties to the lowest phase. A cloth evaluates every
+    /// `interval` of its steps, and one staggered to step every `m` frames (`stagger_steps`)
+    /// every `m · interval` frames, so the frame is the slot: the frames until its next
+    /// evaluation under each phase, within its cycle of `m · interval` (cloths of different
+    /// cycles do not share slots). A staggered cloth may also run that evaluation up to
+    /// `m − 1` frames ahead of its step, on a frame it does not step in
+    /// ([`AdaptiveCloth::evaluate_ahead`]: nothing of it moves between its steps), so its
+    /// slots are every frame of its cycle, and the frames start loaded with the steps of the
+    /// group that steps on them. Run every `update_frames` frames, as the cuts change.
     fn balance_phases(&mut self, jobs: &mut [ClothJob<'_>]) {
+        // What an evaluation costs each cloth (it measures every simulated node) and a step of
+        // a staggered cloth (its last settled step), cost units.
+        let per_node = self.settings.cost.cloth.evaluated_node * 1e9;
+        let evaluation = |j: &ClothJob<'_>| per_node * j.cloth.node_count() as f64;
         let mut order: Vec<usize> = (0..jobs.len()).collect();
         order.sort_by_key(|&i| (std::cmp::Reverse(jobs[i].cloth.node_count()), jobs[i].key));
-        // Nodes evaluated per (cycle, frames from now).
-        let mut load: BTreeMap<(u64, u64), u64> = BTreeMap::new();
+        // Cost units per (cycle, frames from now): the frames' steps of staggered cloths
+        // first, so that the largest evaluations land on the frames whose step group is
+        // lightest, then the evaluations.
+        let mut load: BTreeMap<(u64, u64), f64> = BTreeMap::new();
+        for job in jobs.iter() {
+            let interval = job.cloth.feedback().map_or(1, |f| f.interval).max(1) as u64;
+            let Some(state) = self.objects.get(&job.key) else {
+                continue;
+            };
+            let Some((m, group)) = state.stagger.filter(|s| s.0 >= 2) else {
+                continue;
+            };
+            let (m, group) = (m as u64, group as u64);
+            for t in 0..m * interval {
+                if (self.frames + t + group) % m == m - 1 {
+                    *load.entry((m * interval, t)).or_default() += state.step_settled_units;
+                }
+            }
+        }
         for i in order {
             let job = &mut jobs[i];
             let interval = job.cloth.feedback().map_or(1, |f| f.interval).max(1) as u64;
@@ -876,10 +955,20 @@ impl FrameBudgeter {
                 let until = (interval - (steps + p) % interval) % interval;
                 (m * interval, first + until * m)
             };
-            let phase = (0..interval)
-                .min_by_key(|&p| (load.get(&slot(p)).copied().unwrap_or(0), p))
-                .unwrap_or(0);
-            *load.entry(slot(phase)).or_default() += job.cloth.node_count() as u64;
+            // A staggered cloth may evaluate up to `m − 1` frames before its step (nothing of
+            // it moves between its steps): any frame of its cycle.
+            let cycle = m * interval;
+            let load_at = |p: u64, lead: u64| {
+                let (_, t) = slot(p);
+                (t >= lead).then(|| load.get(&(cycle, t - lead)).copied().unwrap_or(0.0))
+            };
+            let (phase, lead) = (0..interval)
+                .flat_map(|p| (0..m).map(move |l| (p, l)))
+                .filter_map(|(p, l)| load_at(p, l).map(|v| (v, p, l)))
+                .min_by(|a, b| a.0.total_cmp(&b.0).then((a.1, a.2).cmp(&(b.1, b.2))))
+                .map_or((0, 0), |(_, p, l)| (p, l));
+            *load.entry((cycle, slot(phase).1 - lead)).or_default() += evaluation(job);
+            state.lead = lead as u32;
             let phase = phase as u32;
             if state.phase != Some(phase) {
                 // Moving a cloth's phase shifts its next evaluation by less than an interval.
@@ -887,6 +976,17 @@ impl FrameBudgeter {
                 state.phase = Some(phase);
             }
         }
+    }
+}
+
+/// Frames of `dt` per solver step of `cloth`, rounded, at least 1 (and 1 for a `dt` that is
+/// not positive).
+fn frames_per_step(cloth: &AdaptiveCloth, dt: f32) -> u32 {
+    let r = (cloth.body().settings().solver.dt / dt).round();
+    if r.is_finite() && r >= 1.0 {
+        r.min(1e6) as u32
+    } else {
+        1
     }
 }
 

@@ -35,6 +35,13 @@ pub(crate) fn run_crowds(jobs: &mut [CrowdJob<'_>], dt: f32, view: &View) -> f64
 fn step_job(job: &mut ClothJob<'_>, view: &View, model: crate::cloth::CostModel) {
     let mut work = StepCost::default();
     job.outcome = (|| {
+        if job.ahead
+            && job.steps == 0
+            && let Some(w) = job.cloth.evaluate_ahead(view)?
+        {
+            work.evaluations += 1;
+            work.units += model.evaluation_seconds(&w) * 1e9;
+        }
         for _ in 0..job.steps {
             job.cloth.step(view)?;
             let w = job.cloth.stats().last_work;
@@ -149,6 +156,9 @@ pub(crate) struct ClothJob<'a> {
     pub(crate) key: ObjectKey,
     pub(crate) cloth: &'a mut AdaptiveCloth,
     pub(crate) steps: u32,
+    /// Whether it runs its next step's evaluation this frame, not stepping in it
+    /// ([`AdaptiveCloth::evaluate_ahead`]; see `FrameBudgeter::balance_phases`).
+    pub(crate) ahead: bool,
     pub(crate) bound: f32,
     pub(crate) share: BudgetShare,
     pub(crate) outcome: Result<StepCost, crate::cloth::ClothError>,
