@@ -82,7 +82,9 @@ static int surface(SlodWorld *world, SlodClothId cloth, size_t *count, float *lo
     return finite;
 }
 
-static int run_net(SlodWorld *world, unsigned steps) {
+/* The paper's net: 65 x 65 vertices 2 m wide, starting one level up, its four corners pinned
+ * where they rest (vertex (i, j) is j * columns + i). */
+static SlodClothId create_net(SlodWorld *world) {
     SlodClothDesc desc = slod_default_cloth_desc();
     desc.columns = 65;
     desc.rows = 65;
@@ -90,13 +92,16 @@ static int run_net(SlodWorld *world, unsigned steps) {
     desc.initial_level = 1;
     SlodClothId cloth;
     CHECK(slod_cloth_create_grid(world, &desc, &cloth));
-
-    /* Pin the four corners where they rest: vertex (i, j) is j * columns + i. */
     const float half = 0.5f * (float)(desc.columns - 1) * desc.spacing;
     const unsigned c = desc.columns, r = desc.rows;
     const unsigned corners[4] = {0, c - 1, (r - 1) * c, r * c - 1};
     const float cx[4] = {-half, half, -half, half}, cz[4] = {-half, -half, half, half};
     for (int k = 0; k < 4; ++k) CHECK(slod_cloth_pin_vertex(world, cloth, corners[k], cx[k], 0.0f, cz[k]));
+    return cloth;
+}
+
+static int run_net(SlodWorld *world, unsigned steps) {
+    SlodClothId cloth = create_net(world);
 
     SlodCamera cam = look_at(0.0f, 0.6f, 3.2f, 0.0f, -0.5f, 0.0f);
     CHECK(slod_world_set_camera(world, &cam));
@@ -157,6 +162,56 @@ static int run_net(SlodWorld *world, unsigned steps) {
            (unsigned long long)st.refines, (unsigned long long)st.coarses);
     CHECK(slod_cloth_destroy(world, cloth));
     return finite ? 0 : 1;
+}
+
+/* A host at 120 Hz with a cloth stepped at 60 Hz: the cloth steps on even frames. Two
+ * identical nets under a 1 px error bound: `ahead` runs its next step's evaluation on the frame
+ * between (slod_cloth_evaluate_ahead), `inline` leaves it inside the step. Both see the same
+ * view, so their positions stay bit-identical; what moves is the cost: the evaluation leaves the
+ * step's frame. Prints each one's longest frame. */
+static int run_high_refresh(SlodWorld *world, unsigned frames) {
+    SlodClothId nets[2];
+    SlodFeedbackDesc fb = slod_default_feedback_desc();
+    fb.budget_kind = SLOD_CLOTH_BUDGET_MAX_ERROR_PX;
+    fb.budget_value = 1.0;
+    for (int n = 0; n < 2; ++n) {
+        nets[n] = create_net(world);
+        CHECK(slod_cloth_set_feedback(world, nets[n], &fb));
+    }
+    double longest[2] = {0.0, 0.0};
+    unsigned ahead_runs = 0;
+    /* Frames 0..frames (an even count): the last one steps both, so they are compared at the
+     * same step (an evaluation run ahead begins its operations before its step). */
+    for (unsigned f = 0; f <= frames; ++f) {
+        for (int n = 0; n < 2; ++n) {
+            double t0 = now_ms();
+            if (f % 2 == 0) {
+                CHECK(slod_cloth_step(world, nets[n]));
+            } else if (n == 0) {
+                bool ran = false;
+                CHECK(slod_cloth_evaluate_ahead(world, nets[n], &ran));
+                ahead_runs += ran;
+            }
+            double ms = now_ms() - t0;
+            /* The first second is the cold start (the cut shaping itself): not counted. */
+            if (f >= 120 && ms > longest[n]) longest[n] = ms;
+        }
+    }
+    const size_t count = 65 * 65;
+    float *pos[2] = {malloc(3 * count * sizeof(float)), malloc(3 * count * sizeof(float))};
+    if (!pos[0] || !pos[1]) return 1;
+    for (int n = 0; n < 2; ++n) {
+        size_t written = 0;
+        CHECK(slod_cloth_vertex_positions(world, nets[n], pos[n], count, &written));
+    }
+    int same = memcmp(pos[0], pos[1], 3 * count * sizeof(float)) == 0;
+    free(pos[0]);
+    free(pos[1]);
+    printf("high_refresh frames %u evaluations_ahead %u identical %d longest_ahead_ms %.3f "
+           "longest_inline_ms %.3f\n",
+           frames, ahead_runs, same, longest[0], longest[1]);
+    for (int n = 0; n < 2; ++n) CHECK(slod_cloth_destroy(world, nets[n]));
+    return same ? 0 : 1;
 }
 
 static int run_crowd(SlodWorld *world, const char *rig_path, unsigned characters, unsigned frames) {
@@ -597,6 +652,7 @@ int main(int argc, char **argv) {
     if (status == 0) status = run_crowd(world, rig, characters, frames);
     if (status == 0) status = run_cape(world, rig, steps < 120 ? steps : 120);
     if (status == 0) status = run_world(world, rig, steps < 240 ? steps : 240);
+    if (status == 0) status = run_high_refresh(world, steps < 240 ? 2 * steps : 480);
 
     SlodWorldCounts counts;
     CHECK(slod_world_counts(world, &counts));

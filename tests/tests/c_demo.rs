@@ -204,6 +204,20 @@ fn c_demo_runs_the_net_and_the_crowd() {
         field::<f64>(skin_line, "error_max_px").is_finite(),
         "{skin_line}"
     );
+    // A 120 Hz host with a 60 Hz cloth: the evaluations run ahead on the frames between steps
+    // (one per 5 steps), and the run is the same as with the evaluations inside the steps.
+    let high = lines
+        .iter()
+        .find(|l| l.starts_with("high_refresh"))
+        .expect("high-refresh line");
+    let frames: usize = field(high, "frames");
+    assert_eq!(frames, 2 * 240);
+    assert_eq!(
+        field::<usize>(high, "evaluations_ahead"),
+        frames / 2 / 5,
+        "{high}"
+    );
+    assert_eq!(field::<i32>(high, "identical"), 1, "{high}");
     assert!(out.contains("world left cloths 0 rigs 0 crowds 0 characters 0"));
     assert!(out.trim_end().ends_with("demo ok"));
 }
