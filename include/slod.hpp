@@ -196,6 +196,12 @@ public:
     }
 
     void step() { check(slod_cloth_step(world_.get(), id_), "slod_cloth_step"); }
+    /// Runs the next step's due evaluation now (see `slod_cloth_evaluate_ahead`); whether one ran.
+    bool evaluate_ahead() {
+        bool ran = false;
+        check(slod_cloth_evaluate_ahead(world_.get(), id_, &ran), "slod_cloth_evaluate_ahead");
+        return ran;
+    }
     void refine(uint32_t node) { check(slod_cloth_refine(world_.get(), id_, node), "slod_cloth_refine"); }
     void coarse(uint32_t node) { check(slod_cloth_coarse(world_.get(), id_, node), "slod_cloth_coarse"); }
     void pin(uint32_t vertex, const Vec3 &at) {

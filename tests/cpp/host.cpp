@@ -121,7 +121,17 @@ void cloth_checks(slod::World &world) {
     EXPECT(slod::last_error().find("budget_kind") != std::string::npos);
     cloth.set_feedback(fb);
 
-    for (int s = 0; s < 120; ++s) cloth.step();
+    // Every other step's evaluation runs ahead of it (as a 120 Hz host would, between steps):
+    // it still counts once per interval, and a second call before the step runs nothing.
+    int ahead = 0;
+    for (int s = 0; s < 120; ++s) {
+        if (s % 4 == 2) {
+            ahead += cloth.evaluate_ahead();
+            EXPECT(!cloth.evaluate_ahead());
+        }
+        cloth.step();
+    }
+    EXPECT(ahead == 30);
     SlodClothStats st = cloth.stats();
     EXPECT(st.steps == 120);
     EXPECT(st.evaluations == 60);
