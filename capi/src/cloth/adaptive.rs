@@ -378,7 +378,8 @@ impl AdaptiveCloth {
     /// Advances the simulation by one step of the solver's `dt`; with feedback on, every
     /// `interval` steps (counting from the first, shifted by the evaluation phase) also measures salience as seen through `view`
     /// (the frame's camera, viewport and light; the cloth keeps no copy) and begins the
-    /// operations the evaluator chose. Operations whose blend is done end inside the step.
+    /// operations the evaluator chose, unless [`AdaptiveCloth::evaluate_ahead`] ran that
+    /// stage since the last step. Operations whose blend is done end inside the step.
     ///
     /// With a time budget the controller is given every step's time (by the [`StepClock`]), the
     /// evaluation's part of it, the nodes and the transitions in flight, and moves the node

@@ -668,7 +668,8 @@ fn on_world_threads<T: Send>(
 /// it makes that frame the longest; run in the frame between, it evens the two. Nothing of the
 /// cloth moves between its steps, so the evaluation measures the state the step would, seen
 /// through the world's current view, and its refines and coarses begin now, to blend from the
-/// next step on. Worlds under a frame budget (`slod_world_set_budget`) do this themselves.
+/// next step on. `slod_world_step` does this itself for the cloths it steps when its `dt` is
+/// shorter than theirs (and spreads their steps over its frames).
 /// Threads: mutates the world; with feedback `parallel` the salience stage uses the world's
 /// worker threads. Errors: `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_REFUSED` if the feedback stage
 /// refused its inputs (`*out_evaluated` then false); `SLOD_RESULT_NULL_ARGUMENT` for a NULL

@@ -500,13 +500,9 @@ fn cloths_are_spread_over_frames_shorter_than_their_step() {
     };
     let frames = 300;
     let (stepped, steps, p1) = go(1.0 / 120.0, 1, frames);
-    // Every frame steps some of the cloth work (without the spread: all of it, then none),
-    // and once the cold start's cuts have grown (the groups are drawn from the cuts of the
-    // window's first frame) the two frames of a pair step within 15% of each other (measured:
-    // at most 8% from frame 90, up to 61% during the ramp).
     // Every frame steps some of the cloth work (without the spread: all of it, then none);
     // once the cold start's cuts have grown, the two frames of a pair step about as much
-    // (measured past frame 100: median 3%, 90% of pairs within 8%, the largest 20%, at the
+    // (measured past frame 100: median 1.2%, 90% of pairs within 5%, the largest 22%, at the
     // frames where a regrouped cloth catches up or waits a frame).
     let gaps: Vec<f64> = stepped
         .chunks(2)
