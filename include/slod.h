@@ -1854,8 +1854,8 @@ SlodResult slod_cloth_step(struct SlodWorld *world, struct SlodClothId cloth);
  * it makes that frame the longest; run in the frame between, it evens the two. Nothing of the
  * cloth moves between its steps, so the evaluation measures the state the step would, seen
  * through the world's current view, and its refines and coarses begin now, to blend from the
- * next step on. `slod_world_step` does this itself for the cloths it steps when its `dt` is
- * shorter than theirs (and spreads their steps over its frames).
+ * next step on. `slod_world_step` spreads its cloths' evaluations over its frames itself when
+ * its `dt` is shorter than theirs (in parts: `slod_cloth_evaluate_ahead_part`).
  * Threads: mutates the world; with feedback `parallel` the salience stage uses the world's
  * worker threads. Errors: `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_REFUSED` if the feedback stage
  * refused its inputs (`*out_evaluated` then false); `SLOD_RESULT_NULL_ARGUMENT` for a NULL
@@ -1867,6 +1867,31 @@ SlodResult slod_cloth_step(struct SlodWorld *world, struct SlodClothId cloth);
 SlodResult slod_cloth_evaluate_ahead(struct SlodWorld *world,
                                      struct SlodClothId cloth,
                                      bool *out_evaluated);
+
+/**
+ * Measures now part of the evaluation the cloth's next `slod_cloth_step` is due to run: its
+ * nodes up to `fraction` of them (in [0, 1]), and writes whether a part ran (false: none due,
+ * one already ran ahead, or the cloth's feedback budget is not
+ * `SLOD_CLOTH_BUDGET_MAX_ERROR_PX`, whose measurement alone is split).
+ *
+ * For a host whose frames are a fraction of the cloth's step (a 240 Hz host stepping a 60 Hz
+ * cloth every fourth frame): call it on the frames between two steps with 1/4, 2/4, 3/4 and
+ * the step finishes the rest, so the evaluation's cost is spread evenly over the four frames
+ * instead of landing on one. Nothing of the cloth moves between its steps, so every part
+ * measures one state, through the first part's view: the result is the evaluation
+ * `slod_cloth_evaluate_ahead` would have run at the first part. Anything that changes the
+ * cloth in between (pins, refine, coarse) drops the parts and the step measures again.
+ * `slod_world_step` does this itself for its cloths when its `dt` is shorter than theirs.
+ * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_INVALID_ARGUMENT`
+ * for a NaN `fraction` (nothing run); `SLOD_RESULT_NULL_ARGUMENT` for a NULL `out_ran`.
+ *
+ * # Safety
+ * `world` NULL or a live world; `out_ran` NULL or valid for a write.
+ */
+SlodResult slod_cloth_evaluate_ahead_part(struct SlodWorld *world,
+                                          struct SlodClothId cloth,
+                                          float fraction,
+                                          bool *out_ran);
 
 /**
  * Begins refining hierarchy node `node` (replacing it by its children over `blend_steps` steps).

@@ -202,6 +202,14 @@ public:
         check(slod_cloth_evaluate_ahead(world_.get(), id_, &ran), "slod_cloth_evaluate_ahead");
         return ran;
     }
+    /// Measures part of the next step's due evaluation now, up to `fraction` of its nodes (see
+    /// `slod_cloth_evaluate_ahead_part`); whether a part ran.
+    bool evaluate_ahead_part(float fraction) {
+        bool ran = false;
+        check(slod_cloth_evaluate_ahead_part(world_.get(), id_, fraction, &ran),
+              "slod_cloth_evaluate_ahead_part");
+        return ran;
+    }
     void refine(uint32_t node) { check(slod_cloth_refine(world_.get(), id_, node), "slod_cloth_refine"); }
     void coarse(uint32_t node) { check(slod_cloth_coarse(world_.get(), id_, node), "slod_cloth_coarse"); }
     void pin(uint32_t vertex, const Vec3 &at) {

@@ -82,9 +82,21 @@ pub struct AdaptiveCloth {
     /// Offset of this cloth's evaluation steps within the feedback interval (see
     /// [`AdaptiveCloth::set_evaluation_phase`]).
     evaluation_phase: u32,
-    /// Wall seconds and nodes of the feedback stage [`AdaptiveCloth::evaluate_ahead`] ran for
-    /// the next step (`Some` until that step, which then skips its own).
-    evaluated_ahead: Option<(f64, u64)>,
+    /// What ran ahead of the next step ([`AdaptiveCloth::evaluate_ahead`],
+    /// [`AdaptiveCloth::evaluate_ahead_part`]): reported with that step.
+    ahead: Ahead,
+}
+
+/// Work of the next step's evaluation run ahead of it, reported with that step.
+#[derive(Clone, Copy, Debug, Default)]
+struct Ahead {
+    /// Wall seconds spent.
+    seconds: f64,
+    /// Nodes measured.
+    nodes: u64,
+    /// Whether the whole evaluation ran (the step then skips it); false while only parts of
+    /// its measurement did (the step finishes it).
+    finished: bool,
 }
 
 /// The least time a node stays merged before the loop refines it again (unless it touches a
@@ -151,7 +163,7 @@ impl AdaptiveCloth {
             clock: StepClock::Wall,
             contact: ContactMemory::default(),
             evaluation_phase: 0,
-            evaluated_ahead: None,
+            ahead: Ahead::default(),
         })
     }
 
@@ -202,6 +214,7 @@ impl AdaptiveCloth {
     /// The soft body, mutably (pins, forces, settings). Refines and coarses begun through it
     /// directly are not counted in the statistics.
     pub fn body_mut(&mut self) -> &mut TreeCutSoftBody {
+        self.forget_partial();
         &mut self.body
     }
 
@@ -337,6 +350,10 @@ impl AdaptiveCloth {
     /// many cloths gives them different phases so that their evaluations, which cost several
     /// steps' worth of time, fall on different frames instead of all on every k-th one.
     pub fn set_evaluation_phase(&mut self, phase: u32) {
+        if phase != self.evaluation_phase {
+            // The evaluation a measurement was begun ahead for is no longer the next step's.
+            self.forget_partial();
+        }
         self.evaluation_phase = phase;
     }
 
@@ -350,6 +367,7 @@ impl AdaptiveCloth {
     /// nothing changed, if it is not on the cut, a leaf, or locked by a transition in flight.
     pub fn refine(&mut self, node: NodeId) -> Result<(), ClothError> {
         self.body.begin_refine(node)?;
+        self.forget_partial();
         self.record(node, OP_REFINE);
         Ok(())
     }
@@ -358,6 +376,7 @@ impl AdaptiveCloth {
     /// with nothing changed, unless all its children are on the cut and unlocked.
     pub fn coarse(&mut self, parent: NodeId) -> Result<(), ClothError> {
         self.body.begin_coarse(parent)?;
+        self.forget_partial();
         self.record(parent, OP_COARSE);
         Ok(())
     }
@@ -388,11 +407,11 @@ impl AdaptiveCloth {
         let start = Instant::now();
         let mut work = StepWork::default();
         let due = self.evaluation_due();
-        // An evaluation run ahead is this step's (see `evaluate_ahead`): reported with it.
-        let ahead = self.evaluated_ahead.take();
-        let mut eval_seconds = ahead.map(|(s, _)| s);
+        // What ran ahead is this step's evaluation (see `evaluate_ahead`): reported with it.
+        let ahead = std::mem::take(&mut self.ahead);
+        let mut eval_seconds = (ahead.nodes > 0 || ahead.finished).then_some(ahead.seconds);
         if due {
-            eval_seconds = Some(self.feedback_stage(view, &mut work)?);
+            eval_seconds = Some(ahead.seconds + self.feedback_stage(view, &mut work)?);
         }
         let solver = self.body.settings().solver;
         let passes = solver.substeps as u64;
@@ -403,16 +422,16 @@ impl AdaptiveCloth {
         self.stats.last_work = work;
         let nodes = self.body.particle_count();
         self.body.step();
+        // A measurement begun ahead for an evaluation this step did not run (its phase moved)
+        // measured a state that is gone.
+        self.forget_partial();
         self.contact.after_step(&self.body);
         self.stats.steps += 1;
         let (seconds, eval_seconds) = match self.clock {
-            StepClock::Wall => (
-                start.elapsed().as_secs_f64() + ahead.map_or(0.0, |(s, _)| s),
-                eval_seconds,
-            ),
+            StepClock::Wall => (start.elapsed().as_secs_f64() + ahead.seconds, eval_seconds),
             StepClock::Model(m) => {
                 let evaluated = StepWork {
-                    evaluated_nodes: work.evaluated_nodes + ahead.map_or(0, |(_, n)| n),
+                    evaluated_nodes: work.evaluated_nodes + ahead.nodes,
                     ..work
                 };
                 (
@@ -437,12 +456,14 @@ impl AdaptiveCloth {
     }
 
     /// The feedback stage a step runs when it is due: the time controller's interval closed,
-    /// the evaluation (`work` gets its nodes). Returns its wall seconds.
+    /// the evaluation (`work` gets the nodes it measures: those no part measured ahead).
+    /// Returns its wall seconds.
     fn feedback_stage(&mut self, view: &View, work: &mut StepWork) -> Result<f64, ClothError> {
+        let measured = self.feedback.as_ref().map_or(0, |f| f.measured_ahead());
         if let Some(c) = self.feedback.as_mut().and_then(|f| f.controller.as_mut()) {
             c.end_interval();
         }
-        work.evaluated_nodes = self.body.particle_count() as u64;
+        work.evaluated_nodes = self.body.particle_count().saturating_sub(measured) as u64;
         let t = Instant::now();
         self.evaluate(view)?;
         Ok(t.elapsed().as_secs_f64())
@@ -455,8 +476,9 @@ impl AdaptiveCloth {
     /// same state and plans the same operations as the step would (seen through this `view`,
     /// under the budget set now), and the operations begin now to blend from that step on. A
     /// host whose frames are shorter than the cloth's step uses it to run a cloth's evaluation
-    /// on a frame in which the cloth does not step (the world does: an evaluation costs most
-    /// of a step, and on the stepping frame it made that frame the longest of its cycle).
+    /// on a frame in which the cloth does not step (an evaluation costs most of a step: on
+    /// the stepping frame it makes that frame the longest of its cycle; a world spreads it
+    /// over several frames instead, [`AdaptiveCloth::evaluate_ahead_part`]).
     /// Its time is reported with the next step (`last_eval_seconds`, and the time budget's
     /// sample, whose step time includes it); that step's [`ClothStats::last_work`] does not
     /// count it (it was charged here).
@@ -466,8 +488,62 @@ impl AdaptiveCloth {
         }
         let mut work = StepWork::default();
         let seconds = self.feedback_stage(view, &mut work)?;
-        self.evaluated_ahead = Some((seconds, work.evaluated_nodes));
+        self.ahead.seconds += seconds;
+        self.ahead.nodes += work.evaluated_nodes;
+        self.ahead.finished = true;
         Ok(Some(work))
+    }
+
+    /// Runs part of the next step's due evaluation now: its measurement of the nodes, up to
+    /// `fraction` of them (in [0, 1]; a measurement is begun if none is under way, seeing the
+    /// cloth through `view`). The step (or [`AdaptiveCloth::evaluate_ahead`]) finishes it: the
+    /// rest of the nodes, the priorities and the operations. Nothing of the cloth moves between
+    /// two steps, so the parts measure one state, all through the first part's view, and the
+    /// evaluation is the one [`AdaptiveCloth::evaluate_ahead`] would have run at the first
+    /// part (its bound is the one set when it finishes). A host whose frames are a fraction of
+    /// the cloth's step spreads an evaluation, which costs most of a step, over the frames in
+    /// which the cloth does not step (a world does). Returns the work (only
+    /// [`StepWork::evaluated_nodes`] set), or `None` when no evaluation is due, one already
+    /// ran ahead, or the cloth's budget is not [`super::ClothBudget::MaxErrorPx`] (other
+    /// budgets measure in one go). The body changed in between ([`AdaptiveCloth::body_mut`],
+    /// [`AdaptiveCloth::refine`], [`AdaptiveCloth::coarse`]): the parts are dropped and the step
+    /// measures again. Refused (nothing changed) for a `fraction` that is not a number.
+    pub fn evaluate_ahead_part(
+        &mut self,
+        view: &View,
+        fraction: f32,
+    ) -> Result<Option<StepWork>, ClothError> {
+        if fraction.is_nan() {
+            return Err(ClothError::Feedback {
+                field: "fraction",
+                reason: "must be a number in [0, 1]",
+            });
+        }
+        if !self.evaluation_due() {
+            return Ok(None);
+        }
+        let Some(f) = self.feedback.as_mut() else {
+            return Ok(None);
+        };
+        let t = Instant::now();
+        let dt = self.body.settings().solver.dt;
+        let nodes = f.measure_part(&self.body, &self.node_radius, view, dt, fraction)?;
+        if nodes == 0 && f.measured_ahead() == 0 {
+            return Ok(None);
+        }
+        self.ahead.seconds += t.elapsed().as_secs_f64();
+        self.ahead.nodes += nodes as u64;
+        Ok(Some(StepWork {
+            evaluated_nodes: nodes as u64,
+            ..StepWork::default()
+        }))
+    }
+
+    /// Drops a measurement begun ahead (the body is about to change).
+    fn forget_partial(&mut self) {
+        if let Some(f) = self.feedback.as_mut() {
+            f.drop_partial();
+        }
     }
 
     /// Runs the feedback stage once now, seeing the cloth through `view`: salience, evaluator,
@@ -483,7 +559,8 @@ impl AdaptiveCloth {
         };
         let (now, last_op) = (self.stats.steps, &self.last_op);
         let recent = |n: NodeId| recent_op(last_op, now, n);
-        f.measure(
+        // A measurement begun ahead in parts is finished through the view it began with.
+        let seen = f.measure(
             &self.body,
             &mut self.node_normals,
             &self.node_radius,
@@ -492,7 +569,7 @@ impl AdaptiveCloth {
             &recent,
         )?;
         self.contact
-            .raise_priorities(&self.body, &mut f.priorities, view);
+            .raise_priorities(&self.body, &mut f.priorities, &seen);
         let h = self.body.hierarchy_arc().clone();
         let budget = f.node_budget(h.vertex_count());
         // The operation limit follows the budget (see `FeedbackSettings::ops_per_evaluation`).
@@ -657,7 +734,7 @@ impl AdaptiveCloth {
     /// step count at the cloth's evaluation phase, and the stage not already run ahead of it by
     /// [`AdaptiveCloth::evaluate_ahead`]).
     pub fn evaluation_due(&self) -> bool {
-        self.evaluated_ahead.is_none()
+        !self.ahead.finished
             && self.feedback.as_ref().is_some_and(|f| {
                 (self.stats.steps + self.evaluation_phase as u64)
                     .is_multiple_of(f.settings.interval as u64)

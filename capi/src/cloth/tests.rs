@@ -115,6 +115,71 @@ fn evaluation_ahead_is_the_steps_own() {
     assert_eq!(pa, pb);
 }
 
+/// An error-bound evaluation measured in parts ahead of its step (`evaluate_ahead_part`, as a
+/// world spreads one over the frames between a cloth's steps) is the step's own: the run is
+/// bit-identical to one evaluating inside its steps (positions, cut, operations, statistics
+/// with the modelled clock), the parts' nodes and the step's add up to one measurement, and a
+/// measurement dropped half-way (the body touched in between) is made again by the step with
+/// the same result. A fraction that is not a number is refused.
+#[test]
+fn evaluation_in_parts_is_the_steps_own() {
+    let run = |parts: &[f32], touch: bool| {
+        let mut c = net(17, 1, TreeCutSettings::default());
+        c.set_step_clock(StepClock::Model(CostModel::default()))
+            .unwrap();
+        c.set_feedback(Some(FeedbackSettings {
+            budget: ClothBudget::MaxErrorPx(0.5),
+            interval: 3,
+            ..FeedbackSettings::default()
+        }))
+        .unwrap();
+        for _ in 0..90 {
+            if c.evaluation_due() {
+                let mut measured = 0;
+                for &f in parts {
+                    let w = c.evaluate_ahead_part(&camera(), f).unwrap().unwrap();
+                    measured += w.evaluated_nodes;
+                    assert!(c.evaluation_due(), "a part does not finish it");
+                }
+                if !parts.is_empty() {
+                    let expected = (parts[parts.len() - 1] as f64 * c.node_count() as f64).ceil();
+                    assert_eq!(measured, expected as u64);
+                }
+                if touch {
+                    c.body_mut();
+                }
+            }
+            c.step(&camera()).unwrap();
+        }
+        let mut stats = *c.stats();
+        stats.last_work = Default::default();
+        (
+            c.body().particle_positions().to_vec(),
+            c.body().cut().active().to_vec(),
+            stats,
+        )
+    };
+    let (pa, cut_a, sa) = run(&[0.3, 0.6], false);
+    let (pb, cut_b, sb) = run(&[], false);
+    assert!(sa.refines + sa.coarses > 0);
+    assert_eq!(cut_a, cut_b);
+    assert_eq!(sa, sb);
+    assert_eq!(pa, pb);
+    let (pc, cut_c, sc) = run(&[0.5], true);
+    assert_eq!((pc, cut_c), (pb, cut_b));
+    assert_eq!(sc.refines + sc.coarses, sb.refines + sb.coarses);
+    let mut c = net(9, 0, TreeCutSettings::default());
+    c.set_feedback(Some(FeedbackSettings {
+        budget: ClothBudget::MaxErrorPx(1.0),
+        ..FeedbackSettings::default()
+    }))
+    .unwrap();
+    assert!(c.evaluate_ahead_part(&camera(), f32::NAN).is_err());
+    // Another budget measures in one go: no part runs.
+    c.set_feedback(Some(FeedbackSettings::default())).unwrap();
+    assert!(c.evaluate_ahead_part(&camera(), 0.5).unwrap().is_none());
+}
+
 /// From an over-budget start the loop coarsens until the cut fits, then stays within it, while
 /// mass is conserved throughout.
 #[test]

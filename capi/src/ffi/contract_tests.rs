@@ -51,6 +51,18 @@ impl World {
     }
 }
 
+impl World {
+    /// The 289 vertex positions of a 17 × 17 cloth.
+    fn positions_17(&self, id: SlodClothId) -> Vec<f32> {
+        let mut out = vec![0f32; 3 * 289];
+        let mut len = 0;
+        // SAFETY: live world, a buffer of 289 positions and a valid out pointer.
+        let r = unsafe { slod_cloth_vertex_positions(self.0, id, out.as_mut_ptr(), 289, &mut len) };
+        assert_eq!((r, len), (SlodResult::Ok, 289));
+        out
+    }
+}
+
 impl Drop for World {
     fn drop(&mut self) {
         // SAFETY: created by slod_world_create, destroyed once.
@@ -333,13 +345,69 @@ fn evaluation_ahead_is_the_steps_own_across_the_abi() {
         }
     }
     assert_eq!(ran, 20 / feedback.interval);
-    let positions = |id: SlodClothId| {
-        let mut out = vec![0f32; 3 * 289];
-        let mut len = 0;
-        // SAFETY: live world, a buffer of 289 positions and a valid out pointer.
-        let r = unsafe { slod_cloth_vertex_positions(w.0, id, out.as_mut_ptr(), 289, &mut len) };
-        assert_eq!((r, len), (SlodResult::Ok, 289));
-        out
+    assert_eq!(w.positions_17(ids[0]), w.positions_17(ids[1]));
+}
+
+/// `slod_cloth_evaluate_ahead_part` measures the next step's evaluation in parts under an error
+/// bound (nothing under another budget), refuses a NaN fraction and a NULL output, and the run
+/// is the same as stepping alone.
+#[test]
+fn evaluation_in_parts_across_the_abi() {
+    let w = World::new();
+    let desc = SlodClothDesc {
+        columns: 17,
+        rows: 17,
+        initial_level: 1,
+        ..slod_default_cloth_desc()
     };
-    assert_eq!(positions(ids[0]), positions(ids[1]));
+    let feedback = SlodFeedbackDesc {
+        budget_kind: SlodClothBudget::MaxErrorPx as u32,
+        budget_value: 1.0,
+        ..slod_default_feedback_desc()
+    };
+    let mut ids = [SlodClothId::default(); 3];
+    // SAFETY: live world, valid descs and out pointers.
+    unsafe {
+        for id in &mut ids {
+            assert_eq!(slod_cloth_create_grid(w.0, &desc, id), SlodResult::Ok);
+        }
+        for id in &ids[..2] {
+            assert_eq!(slod_cloth_set_feedback(w.0, *id, &feedback), SlodResult::Ok);
+        }
+        let other = slod_default_feedback_desc();
+        assert_eq!(slod_cloth_set_feedback(w.0, ids[2], &other), SlodResult::Ok);
+    }
+    let mut ran = false;
+    let mut parts = 0;
+    for step in 0..20 {
+        // SAFETY: live world, ids of it, valid out pointers.
+        unsafe {
+            assert_eq!(
+                slod_cloth_evaluate_ahead_part(w.0, ids[0], 0.5, std::ptr::null_mut()),
+                SlodResult::NullArgument
+            );
+            assert_eq!(
+                slod_cloth_evaluate_ahead_part(w.0, ids[0], f32::NAN, &mut ran),
+                SlodResult::InvalidArgument
+            );
+            for f in [0.25, 0.5] {
+                assert_eq!(
+                    slod_cloth_evaluate_ahead_part(w.0, ids[0], f, &mut ran),
+                    SlodResult::Ok
+                );
+                assert_eq!(ran, step % feedback.interval == 0, "step {step}");
+                parts += ran as u32;
+            }
+            assert_eq!(
+                slod_cloth_evaluate_ahead_part(w.0, ids[2], 0.5, &mut ran),
+                SlodResult::Ok
+            );
+            assert!(!ran, "not split under a compression budget");
+            for id in ids {
+                assert_eq!(slod_cloth_step(w.0, id), SlodResult::Ok);
+            }
+        }
+    }
+    assert_eq!(parts, 2 * 20 / feedback.interval);
+    assert_eq!(w.positions_17(ids[0]), w.positions_17(ids[1]));
 }

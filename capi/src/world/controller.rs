@@ -62,20 +62,20 @@
 //!
 //! # A known limit: frames shorter than the cloths' step
 //! A host at 120 Hz stepping cloths at 60 Hz: the frame budgeter spreads the cloths' steps over
-//! the frames (`FrameBudgeter::step_cloths`; each frame steps about half the cloth work, the
-//! two frames of a pair within 5% of each other on 90% of pairs), spreads their evaluations
-//! over all of the frames, running one ahead of its cloth's step where that evens the frames
-//! (`AdaptiveCloth::evaluate_ahead`), counts a staggered cloth's cost at its steps per frame
-//! (1/2.4 at 144 Hz; counted at one per two frames, the estimate read 20% high and the cost
-//! rested at 0.87 of the target), and its transitions at theirs; the controller's window is
-//! `update_frames` cloth steps long (10 frames at 120 Hz), so every cloth has answered a bound
-//! before it moves again. On the world tests' scene (32 substeps, cost units, targets 20–80% of
-//! the full-detail frame at the host's rate, 5 s of simulated time, frames from the first
-//! second on) 72–76% of frames are within ±10% at 120 Hz, 74–79% now; 2–34% at 144 Hz (mean
-//! 0.87 of the target), 17–42% now (mean 0.99–1.01); 38–50% at 240 Hz, 47–65% now. It does not
-//! settle: one large cloth's evaluation is a third of a 120 Hz frame (a sixth at 60 Hz), more
-//! than the ±10% band leaves room for on any frame, whichever group steps there; and at
-//! 144 Hz, where a step is 2.4 frames, two groups drift across each other's frames.
+//! the frames (`FrameBudgeter::step_cloths`; each frame steps about half the cloth work),
+//! spreads each cloth's evaluation over the frames up to its step, measured in equal parts
+//! ahead of it (`AdaptiveCloth::evaluate_ahead_part`), counts a staggered cloth's cost at its
+//! steps per frame (1/2.4 at 144 Hz; counted at one per two frames, the estimate read 20% high
+//! and the cost rested at 0.87 of the target), and its transitions at theirs; the controller's
+//! window is `update_frames` cloth steps long (10 frames at 120 Hz), so every cloth has
+//! answered a bound before it moves again. On the world tests' scene (32 substeps, cost units,
+//! targets 20–80% of the full-detail frame at the host's rate, 5 s of simulated time, frames
+//! from the first second on) 72–76% of frames were within ±10% at 120 Hz, 78–84% now; 38–50% at
+//! 240 Hz, 59–70% now; at 144 Hz 2–34% with a mean of 0.87 of the target, 13–35% now with a
+//! mean of 0.99–1.02. It does not settle: an error-bound evaluation costs most of a step (one
+//! large cloth's was a third of a 120 Hz frame whole, a sixth in two parts), the cloths are
+//! few and unequal, and at 144 Hz, where a step is 2.4 frames, the two groups drift across each
+//! other's frames and the parts land where the step was expected, not where it comes.
 
 use std::sync::Arc;
 

@@ -129,9 +129,6 @@ struct ObjectState {
     phase: Option<u32>,
     /// The step group it was given, of how many (see `stagger_steps`).
     stagger: Option<(u32, u32)>,
-    /// Frames before its evaluating step that a staggered cloth runs that evaluation (see
-    /// `balance_phases`; 0: in the step's frame).
-    lead: u32,
     /// The settled cost of its last step, cost units (a staggered cloth's estimate between
     /// its steps).
     step_settled_units: f64,
@@ -150,7 +147,6 @@ impl Default for ObjectState {
             seen: u64::MAX,
             phase: None,
             stagger: None,
-            lead: 0,
             step_rate: 1.0,
             step_settled_units: 0.0,
             regrouped: 0.0,
@@ -393,8 +389,8 @@ impl FrameBudgeter {
     /// steps as fit, at most `max_cloth_steps`), seen through `view`, the cloths in parallel.
     /// Frames shorter than a cloth's step (a 120 Hz host, 60 Hz cloths) spread the cloths'
     /// steps over the frames, each within a step of the world's time (see `stagger_steps`),
-    /// and their evaluations over all of the frames, ahead of their steps where that evens
-    /// the frames (see `balance_phases`).
+    /// and each one's evaluation over the frames up to its step, measured in parts ahead of it
+    /// (see `balance_phases`).
     /// Each cloth's detail follows its share first. A cloth that fails is reported by
     /// [`FrameBudgeter::end_frame`]; the others still step.
     pub fn step_cloths<'a>(
@@ -537,7 +533,7 @@ impl FrameBudgeter {
                 key,
                 cloth,
                 steps: 0,
-                ahead: false,
+                part: None,
                 bound: bound.unwrap_or(0.0),
                 share,
                 outcome: Ok(StepCost::default()),
@@ -579,19 +575,23 @@ impl FrameBudgeter {
         if redraw {
             self.balance_phases(&mut jobs);
         }
-        // A staggered cloth not stepping now evaluates ahead when its next step evaluates and
-        // is no more than its lead away (with frames of varying length the step may come
-        // sooner: it then evaluates in the step, as without a lead).
+        // A staggered cloth not stepping now measures the next part of its next step's
+        // evaluation when that step evaluates and is fewer than `spread` frames away: after
+        // this frame, `(spread − until) / spread` of its nodes (with frames of varying length
+        // the step may come sooner: it then finishes what is left).
         for job in &mut jobs {
             if let Some(state) = self.objects.get(&job.key)
                 && let Some((m, group)) = state.stagger
                 && m >= 2
                 && job.steps == 0
-                && state.lead > 0
+                && job.cloth.evaluation_due()
             {
                 let (m, group) = (m as u64, group as u64);
+                let spread = m.min(MAX_SPREAD_FRAMES);
                 let until = (m - 1 + m - (self.frames + group) % m) % m;
-                job.ahead = until <= state.lead as u64 && job.cloth.evaluation_due();
+                if until < spread {
+                    job.part = Some((spread - until) as f32 / spread as f32);
+                }
             }
         }
         if let Err(e) = self.cap_transitions(&mut jobs) {
@@ -766,8 +766,9 @@ impl FrameBudgeter {
             return Ok(());
         }
         let shared = |j: &ClothJob<'_>| matches!(j.share, BudgetShare::Shared { .. });
-        // Evaluates this frame: in a step, or ahead of one.
-        let evaluates = |j: &ClothJob<'_>| (j.steps > 0 || j.ahead) && j.cloth.evaluation_due();
+        // Begins operations this frame: an evaluation finished in a step (a part measured
+        // ahead of one begins none).
+        let evaluates = |j: &ClothJob<'_>| j.steps > 0 && j.cloth.evaluation_due();
         // A staggered cloth's transitions cost the frames it steps on, about one in `m`.
         let per_frame = |j: &ClothJob<'_>| {
             self.objects
@@ -908,11 +909,12 @@ impl FrameBudgeter {
     /// `interval` of its steps, and one staggered to step every `m` frames (`stagger_steps`)
     /// every `m · interval` frames, so the frame is the slot: the frames until its next
     /// evaluation under each phase, within its cycle of `m · interval` (cloths of different
-    /// cycles do not share slots). A staggered cloth may also run that evaluation up to
-    /// `m − 1` frames ahead of its step, on a frame it does not step in
-    /// ([`AdaptiveCloth::evaluate_ahead`]: nothing of it moves between its steps), so its
-    /// slots are every frame of its cycle, and the frames start loaded with the steps of the
-    /// group that steps on them. Run every `update_frames` frames, as the cuts change.
+    /// cycles do not share slots). A staggered cloth's evaluation is measured in `m` equal
+    /// parts, on the `m − 1` frames before its step and in the step's frame
+    /// ([`AdaptiveCloth::evaluate_ahead_part`]: nothing of it moves between its steps; at most
+    /// [`MAX_SPREAD_FRAMES`]), so its phase is judged by the fullest of those frames, and the
+    /// frames start loaded with the steps of the group that steps on them. Run every
+    /// `update_frames` frames, as the cuts change.
     fn balance_phases(&mut self, jobs: &mut [ClothJob<'_>]) {
         // What an evaluation costs each cloth (it measures every simulated node) and a step of
         // a staggered cloth (its last settled step), cost units.
@@ -955,22 +957,26 @@ impl FrameBudgeter {
                 let until = (interval - (steps + p) % interval) % interval;
                 (m * interval, first + until * m)
             };
-            // A staggered cloth may evaluate up to `m − 1` frames before its step (nothing of
-            // it moves between its steps): any frame of its cycle (at most `MAX_LEAD_FRAMES`
-            // before it).
+            // Its evaluation's parts: the `spread` frames up to its evaluating step (one frame,
+            // the step's, unless staggered); the cycle repeats, so earlier frames wrap round.
             let cycle = m * interval;
-            let load_at = |p: u64, lead: u64| {
-                let (_, t) = slot(p);
-                (t >= lead).then(|| load.get(&(cycle, t - lead)).copied().unwrap_or(0.0))
+            let spread = m.min(MAX_SPREAD_FRAMES);
+            let frames = |p: u64| {
+                let t = slot(p).1 as i64;
+                (0..spread).map(move |l| (t - l as i64).rem_euclid(cycle as i64) as u64)
             };
-            let leads = m.min(MAX_LEAD_FRAMES);
-            let (phase, lead) = (0..interval)
-                .flat_map(|p| (0..leads).map(move |l| (p, l)))
-                .filter_map(|(p, l)| load_at(p, l).map(|v| (v, p, l)))
-                .min_by(|a, b| a.0.total_cmp(&b.0).then((a.1, a.2).cmp(&(b.1, b.2))))
-                .map_or((0, 0), |(_, p, l)| (p, l));
-            *load.entry((cycle, slot(phase).1 - lead)).or_default() += evaluation(job);
-            state.lead = lead as u32;
+            let fullest = |p: u64| {
+                frames(p)
+                    .map(|t| load.get(&(cycle, t)).copied().unwrap_or(0.0))
+                    .fold(0.0, f64::max)
+            };
+            let phase = (0..interval)
+                .min_by(|&a, &b| fullest(a).total_cmp(&fullest(b)).then(a.cmp(&b)))
+                .unwrap_or(0);
+            let part = evaluation(job) / spread as f64;
+            for t in frames(phase).collect::<Vec<_>>() {
+                *load.entry((cycle, t)).or_default() += part;
+            }
             let phase = phase as u32;
             if state.phase != Some(phase) {
                 // Moving a cloth's phase shifts its next evaluation by less than an interval.
@@ -981,9 +987,10 @@ impl FrameBudgeter {
     }
 }
 
-/// The most frames ahead of its step a staggered cloth's evaluation is placed (a bound on the
-/// search when frames are far shorter than a step; 240 Hz with 60 Hz cloths needs 3).
-const MAX_LEAD_FRAMES: u64 = 16;
+/// The most frames a staggered cloth's evaluation is spread over (its step's and those before
+/// it; 240 Hz with 60 Hz cloths uses 4): a bound on the work of spreading when frames are far
+/// shorter than a step.
+pub(crate) const MAX_SPREAD_FRAMES: u64 = 16;
 
 /// Frames of `dt` per solver step of `cloth`, rounded, at least 1 (and 1 for a `dt` that is
 /// not positive).

@@ -35,11 +35,11 @@ pub(crate) fn run_crowds(jobs: &mut [CrowdJob<'_>], dt: f32, view: &View) -> f64
 fn step_job(job: &mut ClothJob<'_>, view: &View, model: crate::cloth::CostModel) {
     let mut work = StepCost::default();
     job.outcome = (|| {
-        if job.ahead
+        if let Some(fraction) = job.part
             && job.steps == 0
-            && let Some(w) = job.cloth.evaluate_ahead(view)?
+            && let Some(w) = job.cloth.evaluate_ahead_part(view, fraction)?
         {
-            work.evaluations += 1;
+            // A part of the next step's evaluation: its cost, not an evaluation yet.
             work.units += model.evaluation_seconds(&w) * 1e9;
         }
         for _ in 0..job.steps {
@@ -156,9 +156,10 @@ pub(crate) struct ClothJob<'a> {
     pub(crate) key: ObjectKey,
     pub(crate) cloth: &'a mut AdaptiveCloth,
     pub(crate) steps: u32,
-    /// Whether it runs its next step's evaluation this frame, not stepping in it
-    /// ([`AdaptiveCloth::evaluate_ahead`]; see `FrameBudgeter::balance_phases`).
-    pub(crate) ahead: bool,
+    /// The fraction of its next step's evaluation to have measured by the end of this frame,
+    /// when it does not step in it ([`AdaptiveCloth::evaluate_ahead_part`]; see
+    /// `FrameBudgeter::balance_phases`).
+    pub(crate) part: Option<f32>,
     pub(crate) bound: f32,
     pub(crate) share: BudgetShare,
     pub(crate) outcome: Result<StepCost, crate::cloth::ClothError>,

@@ -80,6 +80,17 @@ pub(super) struct Frame<'a> {
     pub(super) rim_weight: f32,
 }
 
+/// What a measurement split over calls carries between them (see [`Deviation::begin`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Progress {
+    /// The stamp of the evaluation before this one (whose estimates are held and inherited).
+    previous: u32,
+    /// This one's stamp (set when it ends).
+    current: u32,
+    /// The largest pixels per unit of the cloth's part in view.
+    seen_ppu: f32,
+}
+
 /// Reused buffers: a warm-start rotation per hierarchy node, and the last estimates.
 #[derive(Clone, Debug)]
 pub(super) struct Deviation {
@@ -126,24 +137,37 @@ impl Deviation {
         &mut self,
         body: &TreeCutSoftBody,
         frame: &Frame<'_>,
-        (offsets, neighbours): (&[u32], &[u32]),
+        csr: (&[u32], &[u32]),
         decay: f32,
     ) {
+        let mut progress = self.begin(body, frame);
+        self.measure_range(
+            body,
+            frame,
+            csr,
+            decay,
+            &mut progress,
+            body.particle_count(),
+        );
+        self.end(body, progress);
+    }
+
+    /// Starts a measurement that [`Deviation::measure_range`] carries out in parts (the
+    /// particles in order) and [`Deviation::end`] closes: the whole of
+    /// [`Deviation::measure`], split over calls on a body that does not change between them.
+    pub(super) fn begin(&mut self, body: &TreeCutSoftBody, frame: &Frame<'_>) -> Progress {
+        // The stamp moves on only when the measurement ends: one dropped half-way leaves the
+        // last one's estimates in place for the next.
         let previous = self.evaluation;
-        self.evaluation = self.evaluation.wrapping_add(1).max(1);
+        let current = previous.wrapping_add(1).max(1);
+        let nodes = body.particle_nodes();
         let Frame {
             positions,
-            velocities,
-            latency,
             node_radius,
             view,
-            outside_weight,
             outside_as_seen,
-            rim,
-            rim_weight,
+            ..
         } = *frame;
-        let h = body.hierarchy();
-        let nodes = body.particle_nodes();
         // The largest pixels per unit of the cloth's part in view (0: none in view).
         let seen_ppu = if outside_as_seen {
             nodes
@@ -157,7 +181,46 @@ impl Deviation {
             0.0
         };
         self.particle_px.clear();
-        for (p, &node) in nodes.iter().enumerate() {
+        Progress {
+            previous,
+            current,
+            seen_ppu,
+        }
+    }
+
+    /// Particles measured so far in the measurement begun by [`Deviation::begin`].
+    pub(super) fn measured(&self) -> usize {
+        self.particle_px.len()
+    }
+
+    /// Estimates the particles from the next one not yet measured up to `upto` (exclusive).
+    pub(super) fn measure_range(
+        &mut self,
+        body: &TreeCutSoftBody,
+        frame: &Frame<'_>,
+        (offsets, neighbours): (&[u32], &[u32]),
+        decay: f32,
+        progress: &mut Progress,
+        upto: usize,
+    ) {
+        let Progress {
+            previous, seen_ppu, ..
+        } = *progress;
+        let Frame {
+            positions,
+            velocities,
+            latency,
+            node_radius,
+            view,
+            outside_weight,
+            rim,
+            rim_weight,
+            ..
+        } = *frame;
+        let h = body.hierarchy();
+        let nodes = body.particle_nodes();
+        let from = self.particle_px.len();
+        for (p, &node) in nodes.iter().enumerate().take(upto).skip(from) {
             let (x_p, rest_p) = (positions[p], h.rest_position(node));
             let around = &neighbours[offsets[p] as usize..offsets[p + 1] as usize];
             let mut cov = Mat3::ZERO;
@@ -214,7 +277,13 @@ impl Deviation {
             let held = self.last(h, node, previous, node_radius) * decay;
             self.particle_px.push(px.max(held));
         }
-        for (p, &node) in nodes.iter().enumerate() {
+    }
+
+    /// Closes a measurement every particle of which was measured: the estimates become the
+    /// ones the next measurement holds and inherits from.
+    pub(super) fn end(&mut self, body: &TreeCutSoftBody, progress: Progress) {
+        self.evaluation = progress.current;
+        for (p, &node) in body.particle_nodes().iter().enumerate() {
             self.remembered[node.index()] = self.particle_px[p];
             self.stamps[node.index()] = self.evaluation;
         }

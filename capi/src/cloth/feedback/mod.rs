@@ -96,6 +96,9 @@ pub(crate) struct Feedback {
     pub(crate) curve: Option<std::sync::Arc<BoundCurve>>,
     /// Measurements made so far.
     measurements: u64,
+    /// A measurement under [`ClothBudget::MaxErrorPx`] begun ahead of its step and carried out
+    /// in parts ([`Feedback::measure_part`]); the next [`Feedback::measure`] finishes it.
+    partial: Option<Partial>,
     /// Per hierarchy node: whether it is not a leaf and covers a rim vertex (computed at the
     /// first measurement; see [`FeedbackSettings::rim_weight`]).
     rim: Vec<bool>,
@@ -143,6 +146,7 @@ impl Feedback {
             projected_nodes: None,
             curve: None,
             measurements: 0,
+            partial: None,
             rim: Vec::new(),
         }
     }
@@ -241,24 +245,26 @@ impl Feedback {
         view: &View,
         dt: f32,
         recent: &dyn Fn(NodeId) -> Recent,
-    ) -> Result<(), ClothError> {
+    ) -> Result<View, ClothError> {
+        if let (Some(partial), ClothBudget::MaxErrorPx(bound)) =
+            (self.partial, self.settings.budget)
+        {
+            // Begun ahead (the copies and the neighbour table are made): finished as begun.
+            self.error_bound_measure(body, node_radius, partial, bound, recent);
+            return Ok(partial.view);
+        }
+        self.partial = None;
         let n = body.particle_count();
-        let xyz = |v: &Vec4| v.truncate();
-        self.positions.clear();
-        self.positions
-            .extend(body.particle_positions().iter().map(xyz));
-        self.velocities.clear();
-        self.velocities
-            .extend(body.particle_velocities().iter().map(xyz));
-        body.neighbour_csr(&mut self.offsets, &mut self.neighbours);
+        self.copy_state(body)?;
         let nbrs = Neighbours::new(&self.offsets, &self.neighbours, n)?;
         let nodes = body.particle_nodes();
         if let ClothBudget::MaxErrorPx(bound) = self.settings.budget {
             // Under an error bound the priorities are the on-screen deviation alone: the
             // normals, the BSWDF and the strain term would be computed for nothing (they were:
             // about half of each evaluation).
-            self.error_bound_measure(body, node_radius, view, dt, bound, recent);
-            return Ok(());
+            let partial = self.begin_error_bound(body, node_radius, view, dt);
+            self.error_bound_measure(body, node_radius, partial, bound, recent);
+            return Ok(*view);
         }
         self.hints.clear();
         self.hints
@@ -384,7 +390,7 @@ impl Feedback {
             let slot = &mut self.priorities[parent.index()];
             *slot = slot.max(value(parent));
         }
-        Ok(())
+        Ok(*view)
     }
 
     /// Runs `run` with the [`Frame`] of the positions and velocities just gathered.
@@ -422,28 +428,135 @@ impl Feedback {
         self.rim = rim;
     }
 
-    /// The measurement under [`ClothBudget::MaxErrorPx`]: the on-screen deviation of every
-    /// particle, then the priorities, the node budget and the projection from it.
-    fn error_bound_measure(
+    /// The particles' positions and velocities copied, the neighbour table built (and checked):
+    /// what a measurement reads of the body besides its structure.
+    fn copy_state(&mut self, body: &TreeCutSoftBody) -> Result<(), ClothError> {
+        let xyz = |v: &Vec4| v.truncate();
+        self.positions.clear();
+        self.positions
+            .extend(body.particle_positions().iter().map(xyz));
+        self.velocities.clear();
+        self.velocities
+            .extend(body.particle_velocities().iter().map(xyz));
+        body.neighbour_csr(&mut self.offsets, &mut self.neighbours);
+        Neighbours::new(&self.offsets, &self.neighbours, body.particle_count())?;
+        Ok(())
+    }
+
+    /// Begins a measurement under [`ClothBudget::MaxErrorPx`] (after [`Feedback::copy_state`]):
+    /// the cold-start test, the deviation's start, and what its parts share.
+    fn begin_error_bound(
         &mut self,
         body: &TreeCutSoftBody,
         node_radius: &[f32],
         view: &View,
         dt: f32,
-        bound: f32,
-        recent: &dyn Fn(NodeId) -> Recent,
-    ) {
+    ) -> Partial {
         let period = self.settings.interval as f32 * dt;
-        let decay = self.settings.memory_decay(dt);
         // Cold start: until the loop has watched the cloth for one memory period it has no
         // history, and a cloth at rest (about to be released, or to be hit by wind) reads as
         // one that can be merged; merges then wait.
         let warm = self.measurements as f32 * period >= self.settings.memory_seconds;
         self.measurements += 1;
+        let mut progress = None;
         self.with_frame(body, node_radius, view, dt, |f, body, frame| {
-            let (budget, projected) = f.error_priorities(body, frame, bound, decay, warm, recent);
-            f.error_budget = Some(budget);
-            f.projected_nodes = Some(projected);
+            progress = Some(f.deviation.begin(body, frame));
+        });
+        Partial {
+            view: *view,
+            dt,
+            warm,
+            progress: progress.expect("with_frame runs its closure"),
+        }
+    }
+
+    /// Measures the particles of a measurement under [`ClothBudget::MaxErrorPx`] up to
+    /// `fraction` of them (begun now if none is under way, seeing the cloth through `view`),
+    /// ahead of the step that finishes it ([`Feedback::measure`]): the cloth does not move
+    /// between its steps, so the parts measure one state, all through the first part's view,
+    /// and the result is the one measurement made at the first part. Returns the particles
+    /// measured by this call (0 under another budget: its measurement is not split).
+    pub(crate) fn measure_part(
+        &mut self,
+        body: &TreeCutSoftBody,
+        node_radius: &[f32],
+        view: &View,
+        dt: f32,
+        fraction: f32,
+    ) -> Result<usize, ClothError> {
+        if !matches!(self.settings.budget, ClothBudget::MaxErrorPx(_)) {
+            return Ok(0);
+        }
+        let partial = match self.partial {
+            Some(p) => p,
+            None => {
+                self.copy_state(body)?;
+                self.begin_error_bound(body, node_radius, view, dt)
+            }
+        };
+        self.partial = Some(partial);
+        let n = body.particle_count();
+        let upto = ((fraction.clamp(0.0, 1.0) as f64 * n as f64).ceil() as usize).min(n);
+        let before = self.deviation.measured();
+        self.carry_on(body, node_radius, partial, upto, None);
+        Ok(self.deviation.measured().saturating_sub(before))
+    }
+
+    /// Particles already measured by a measurement under way ([`Feedback::measure_part`]).
+    pub(crate) fn measured_ahead(&self) -> usize {
+        if self.partial.is_some() {
+            self.deviation.measured()
+        } else {
+            0
+        }
+    }
+
+    /// Forgets a measurement under way (the body changed since it began).
+    pub(crate) fn drop_partial(&mut self) {
+        self.partial = None;
+    }
+
+    /// The measurement under [`ClothBudget::MaxErrorPx`]: the on-screen deviation of every
+    /// particle not yet measured (all of them unless parts ran ahead), then the priorities, the
+    /// node budget and the projection from it, under `bound`.
+    fn error_bound_measure(
+        &mut self,
+        body: &TreeCutSoftBody,
+        node_radius: &[f32],
+        partial: Partial,
+        bound: f32,
+        recent: &dyn Fn(NodeId) -> Recent,
+    ) {
+        self.partial = None;
+        let n = body.particle_count();
+        self.carry_on(body, node_radius, partial, n, Some((bound, recent)));
+    }
+
+    /// Measures the deviation of a measurement under way up to particle `upto` (exclusive);
+    /// with `finish` (the bound and the recent-operation test) closes it: the priorities, the
+    /// node budget and the projection from it.
+    fn carry_on(
+        &mut self,
+        body: &TreeCutSoftBody,
+        node_radius: &[f32],
+        partial: Partial,
+        upto: usize,
+        finish: Option<(f32, &dyn Fn(NodeId) -> Recent)>,
+    ) {
+        let decay = self.settings.memory_decay(partial.dt);
+        let (view, dt) = (partial.view, partial.dt);
+        self.with_frame(body, node_radius, &view, dt, |f, body, frame| {
+            let mut progress = partial.progress;
+            let csr = (&f.offsets[..], &f.neighbours[..]);
+            f.deviation
+                .measure_range(body, frame, csr, decay, &mut progress, upto);
+            if let Some((bound, recent)) = finish {
+                f.deviation.end(body, progress);
+                let (budget, projected) =
+                    f.error_priorities(body, frame, bound, partial.warm, recent);
+                f.error_budget = Some(budget);
+                f.projected_nodes = Some(projected);
+            }
         });
     }
 
@@ -464,13 +577,10 @@ impl Feedback {
         body: &TreeCutSoftBody,
         frame: &Frame<'_>,
         bound: f32,
-        decay: f32,
         merges: bool,
         recent: &dyn Fn(NodeId) -> Recent,
     ) -> (usize, usize) {
         let (h, cut) = (body.hierarchy(), body.cut());
-        self.deviation
-            .measure(body, frame, (&self.offsets, &self.neighbours), decay);
         let nodes = body.particle_nodes();
         let mut budget = cut.len() as i64;
         let mut projected = cut.len() as i64;
@@ -581,6 +691,19 @@ impl Feedback {
         self.curve = shared_curve;
         (budget.max(1) as usize, projected.max(1) as usize)
     }
+}
+
+/// A measurement under [`ClothBudget::MaxErrorPx`] under way (see [`Feedback::measure_part`]).
+#[derive(Clone, Copy, Debug)]
+struct Partial {
+    /// The view every part sees the cloth through (the first part's).
+    view: View,
+    /// The solver step it was begun at.
+    dt: f32,
+    /// Whether merges are allowed (the cold start is over).
+    warm: bool,
+    /// The deviation's state between parts.
+    progress: deviation::Progress,
 }
 
 /// Per hierarchy node: whether it can be refined and covers a vertex on the finest mesh's rim.
