@@ -500,9 +500,10 @@ impl AdaptiveCloth {
     /// rest of the nodes, the priorities and the operations. Nothing of the cloth moves between
     /// two steps, so the parts measure one state, all through the first part's view, and the
     /// evaluation is the one [`AdaptiveCloth::evaluate_ahead`] would have run at the first
-    /// part (its bound is the one set when it finishes). A host whose frames are a fraction of
-    /// the cloth's step spreads an evaluation, which costs most of a step, over the frames in
-    /// which the cloth does not step (a world does). Returns the work (only
+    /// part (its bound is the one set when it finishes). An evaluation costs most of a step;
+    /// a host whose frames are a fraction of the cloth's step spreads one over the frames in
+    /// which the cloth does not step, and one whose frames are a step can measure half of the
+    /// next evaluation after this frame's step (a world does both). Returns the work (only
     /// [`StepWork::evaluated_nodes`] set), or `None` when no evaluation is due, one already
     /// ran ahead, or the cloth's budget is not [`super::ClothBudget::MaxErrorPx`] (other
     /// budgets measure in one go). The body changed in between ([`AdaptiveCloth::body_mut`],

@@ -40,25 +40,29 @@
 //! ([`crate::cloth::CostModel::transition_substep`]; a transition at 48 or 64 substeps costs
 //! more, so fewer are allowed in flight): 48 substeps 30 / 53 / 50 / 49, 64 substeps 35 / 33 /
 //! 47 / 49, 32 unchanged. The demo's street (cost units, 40%) settled after 54 frames before,
-//! 48 now; under 20–80% with its cloths at 16, 32 and 48 substeps (`cargo run --release -p
-//! slod-experiments --example world_settling`) it settles in 11 of the 12 cases, 9 before
-//! (every 20% case failed); at 32 substeps and 20% it does not: the cloths' projections run
-//! ahead of their cuts there (the multi-level refine projection halves the estimate per level,
-//! so that a world settles from below), and the cost rests at 0.85–1.1 of the target.
+//! 48 then; under 20–80% with its cloths at 16, 32 and 48 substeps (`cargo run --release -p
+//! slod-experiments --example world_settling`) it settled in 11 of the 12 cases, 9 before
+//! (every 20% case failed; at 32 substeps and 20% the cloths' projections ran ahead of their
+//! cuts and the cost rested at 0.85–1.1 of the target).
 //!
-//! # A known limit: cloths at 16 substeps
-//! With the cloths at 16 substeps it settles at 20%, 35% and 80% of full detail (after 0 / 44
-//! / 47 frames; before the curves and the transitions' charge by substeps: 299 / 300 / 299)
-//! but not at 60% (89% of frames within ±10% from frame 60; 74% before): a step costs half as
-//! much as at 32 while an evaluation costs the same, so one large cloth's evaluation makes the
-//! frame it runs in 8–12% longer than the others of its window (evaluations are spread over
-//! the window's frames, but a cloth's is not split), and the mean must then sit within ±2% of
-//! the target for every frame to stay within ±10%. The same lumps are what remains in a 2.5×
-//! stronger wind (settled in 11 of the 16 cases of 16–64 substeps × 20–80%; at 32 and 48
-//! substeps 6 of 8, before the curves 3 of 8): the errors are larger, the bound higher, the
-//! cuts smaller, and one near cloth's evaluation is up to a fifth of a frame. Holding the
-//! window's midrange instead of its mean at the target (so one-sided lumps straddle it) was
-//! measured and not kept: 8 of those 16 cases.
+//! # Evaluations measured in two frames
+//! With the cloths at 16 substeps it did not settle at 60% of full detail (89% of frames within
+//! ±10% from frame 60): a step costs half as much as at 32 while an evaluation costs the same,
+//! so one large cloth's evaluation made the frame it ran in 8–12% longer than the others (an
+//! error-bound evaluation costs 75–90% of a step at 32 substeps), and the mean had to sit
+//! within ±2% of the target for every frame to stay within ±10%. The same lumps held back a
+//! 2.5× stronger wind (11 of its 16 cases of 16–64 substeps × 20–80% settled). Nothing of a
+//! cloth moves between its steps, so the frame budgeter has each cloth that evaluates at its
+//! next step measure half of that evaluation after this frame's step
+//! (`AdaptiveCloth::evaluate_ahead_part`, the state the next step sees, through this frame's
+//! view) and the step the rest, and balances phases over both frames. Settled frame at 20% /
+//! 35% / 60% / 80% (world tests' scene; whole → in two frames): 16 substeps 0 / 44 / never / 47
+//! → 0 / 28 / 45 / 47; 32: 26 / 45 / 47 / 49 → 19 / 34 / 44 / 48; 48: 30 / 53 / 50 / 49 → 34 /
+//! 34 / 45 / 47; 64: 35 / 33 / 47 / 49 → 32 / 35 / 43 / 52 (at most 1 operation in 699 undone);
+//! in the 2.5× wind all 16 cases settle (after 0–58 frames; 11 before). The street: 12 of 12
+//! (settled after 10 / 17 / 34 / 40 at 16 substeps, 5 / 37 / 45 / 49 at 32, 76 / 44 / 44 / 50 at
+//! 48; its 32 substeps at 20% never before). Frames within ±10% moved both ways by a few points
+//! where both settled (32 substeps at 60%: 98.4 → 96.5%).
 //!
 //! # A known limit: frames shorter than the cloths' step
 //! A host at 120 Hz stepping cloths at 60 Hz: the frame budgeter spreads the cloths' steps over
@@ -68,14 +72,15 @@
 //! steps per frame (1/2.4 at 144 Hz; counted at one per two frames, the estimate read 20% high
 //! and the cost rested at 0.87 of the target), and its transitions at theirs; the controller's
 //! window is `update_frames` cloth steps long (10 frames at 120 Hz), so every cloth has
-//! answered a bound before it moves again. On the world tests' scene (32 substeps, cost units,
-//! targets 20–80% of the full-detail frame at the host's rate, 5 s of simulated time, frames
-//! from the first second on) 72–76% of frames were within ±10% at 120 Hz, 78–84% now; 38–50% at
-//! 240 Hz, 59–70% now; at 144 Hz 2–34% with a mean of 0.87 of the target, 13–35% now with a
-//! mean of 0.99–1.02. It does not settle: an error-bound evaluation costs most of a step (one
-//! large cloth's was a third of a 120 Hz frame whole, a sixth in two parts), the cloths are
-//! few and unequal, and at 144 Hz, where a step is 2.4 frames, the two groups drift across each
-//! other's frames and the parts land where the step was expected, not where it comes.
+//! answered a bound before it moves again. Phases are chosen by the least total cost over an
+//! evaluation's frames (by their largest, one frame in five was left without evaluation work
+//! and ran 15% light). On the world tests' scene (32 substeps, cost units, targets 20–80% of
+//! the full-detail frame at the host's rate, 5 s of simulated time, frames from the first
+//! second on) 72–76% of frames were within ±10% at 120 Hz, 81–87% now; 38–50% at 240 Hz, 62–86%
+//! now; at 144 Hz 2–34% with a mean of 0.87 of the target, 10–29% now with a mean of 0.99–1.01.
+//! It does not settle: the cloths are few and unequal, and at 144 Hz, where a step is 2.4
+//! frames, the two groups drift across each other's frames and the parts land where the step
+//! was expected, not where it comes.
 
 use std::sync::Arc;
 

@@ -534,6 +534,7 @@ impl FrameBudgeter {
                 cloth,
                 steps: 0,
                 part: None,
+                split_next: false,
                 bound: bound.unwrap_or(0.0),
                 share,
                 outcome: Ok(StepCost::default()),
@@ -579,7 +580,13 @@ impl FrameBudgeter {
         // evaluation when that step evaluates and is fewer than `spread` frames away: after
         // this frame, `(spread − until) / spread` of its nodes (with frames of varying length
         // the step may come sooner: it then finishes what is left).
+        // A cloth stepping on every frame measures half of its next step's evaluation after
+        // this frame's steps (the state that step will see), the step the other half.
         for job in &mut jobs {
+            job.split_next = self
+                .objects
+                .get(&job.key)
+                .is_some_and(|s| s.stagger.is_none());
             if let Some(state) = self.objects.get(&job.key)
                 && let Some((m, group)) = state.stagger
                 && m >= 2
@@ -909,12 +916,15 @@ impl FrameBudgeter {
     /// `interval` of its steps, and one staggered to step every `m` frames (`stagger_steps`)
     /// every `m · interval` frames, so the frame is the slot: the frames until its next
     /// evaluation under each phase, within its cycle of `m · interval` (cloths of different
-    /// cycles do not share slots). A staggered cloth's evaluation is measured in `m` equal
-    /// parts, on the `m − 1` frames before its step and in the step's frame
-    /// ([`AdaptiveCloth::evaluate_ahead_part`]: nothing of it moves between its steps; at most
-    /// [`MAX_SPREAD_FRAMES`]), so its phase is judged by the fullest of those frames, and the
-    /// frames start loaded with the steps of the group that steps on them. Run every
-    /// `update_frames` frames, as the cuts change.
+    /// cycles do not share slots). An error-bound evaluation is measured in parts
+    /// ([`AdaptiveCloth::evaluate_ahead_part`]: nothing of a cloth moves between its steps): a
+    /// cloth stepping every frame measures half of it after its step in the frame before, a
+    /// staggered one `m` equal parts on the `m − 1` frames before its step and in the step's
+    /// (at most [`MAX_SPREAD_FRAMES`]); its phase is the one whose frames carry the least cost
+    /// in all (then the least at the fullest: by the fullest alone, a frame whose neighbours
+    /// were full stayed empty, one frame in five 15% light), and the frames start loaded with
+    /// the steps of the group that steps on them. Run every `update_frames` frames, as the cuts
+    /// change.
     fn balance_phases(&mut self, jobs: &mut [ClothJob<'_>]) {
         // What an evaluation costs each cloth (it measures every simulated node) and a step of
         // a staggered cloth (its last settled step), cost units.
@@ -960,7 +970,13 @@ impl FrameBudgeter {
             // Its evaluation's parts: the `spread` frames up to its evaluating step (one frame,
             // the step's, unless staggered); the cycle repeats, so earlier frames wrap round.
             let cycle = m * interval;
-            let spread = m.min(MAX_SPREAD_FRAMES);
+            let spread = if !in_parts(job.cloth) {
+                1
+            } else if m == 1 {
+                2
+            } else {
+                m.min(MAX_SPREAD_FRAMES)
+            };
             let frames = |p: u64| {
                 let t = slot(p).1 as i64;
                 (0..spread).map(move |l| (t - l as i64).rem_euclid(cycle as i64) as u64)
@@ -970,8 +986,18 @@ impl FrameBudgeter {
                     .map(|t| load.get(&(cycle, t)).copied().unwrap_or(0.0))
                     .fold(0.0, f64::max)
             };
+            let total = |p: u64| {
+                frames(p)
+                    .map(|t| load.get(&(cycle, t)).copied().unwrap_or(0.0))
+                    .sum::<f64>()
+            };
             let phase = (0..interval)
-                .min_by(|&a, &b| fullest(a).total_cmp(&fullest(b)).then(a.cmp(&b)))
+                .min_by(|&a, &b| {
+                    total(a)
+                        .total_cmp(&total(b))
+                        .then(fullest(a).total_cmp(&fullest(b)))
+                        .then(a.cmp(&b))
+                })
                 .unwrap_or(0);
             let part = evaluation(job) / spread as f64;
             for t in frames(phase).collect::<Vec<_>>() {
@@ -991,6 +1017,14 @@ impl FrameBudgeter {
 /// it; 240 Hz with 60 Hz cloths uses 4): a bound on the work of spreading when frames are far
 /// shorter than a step.
 pub(crate) const MAX_SPREAD_FRAMES: u64 = 16;
+
+/// Whether `cloth`'s evaluations are measured in parts (an error-bound budget's are; see
+/// [`AdaptiveCloth::evaluate_ahead_part`]).
+fn in_parts(cloth: &AdaptiveCloth) -> bool {
+    cloth
+        .feedback()
+        .is_some_and(|f| matches!(f.budget, crate::cloth::ClothBudget::MaxErrorPx(_)))
+}
 
 /// Frames of `dt` per solver step of `cloth`, rounded, at least 1 (and 1 for a `dt` that is
 /// not positive).

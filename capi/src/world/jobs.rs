@@ -54,6 +54,13 @@ fn step_job(job: &mut ClothJob<'_>, view: &View, model: crate::cloth::CostModel)
             work.settled_units += all - evaluation - transitions;
             work.transition_units += transitions;
         }
+        if job.split_next
+            && job.steps > 0
+            && let Some(w) = job.cloth.evaluate_ahead_part(view, 0.5)?
+        {
+            // Half of the next step's evaluation, over the state that step will see.
+            work.units += model.evaluation_seconds(&w) * 1e9;
+        }
         Ok(work)
     })();
 }
@@ -160,6 +167,9 @@ pub(crate) struct ClothJob<'a> {
     /// when it does not step in it ([`AdaptiveCloth::evaluate_ahead_part`]; see
     /// `FrameBudgeter::balance_phases`).
     pub(crate) part: Option<f32>,
+    /// Whether, stepping in this frame, it measures half of its next step's evaluation after
+    /// its steps ([`AdaptiveCloth::evaluate_ahead_part`]; see `FrameBudgeter::balance_phases`).
+    pub(crate) split_next: bool,
     pub(crate) bound: f32,
     pub(crate) share: BudgetShare,
     pub(crate) outcome: Result<StepCost, crate::cloth::ClothError>,
