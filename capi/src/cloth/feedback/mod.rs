@@ -456,8 +456,8 @@ impl Feedback {
         // Cold start: until the loop has watched the cloth for one memory period it has no
         // history, and a cloth at rest (about to be released, or to be hit by wind) reads as
         // one that can be merged; merges then wait.
+        // (Counted when the measurement ends: one dropped half-way does not count.)
         let warm = self.measurements as f32 * period >= self.settings.memory_seconds;
-        self.measurements += 1;
         let mut progress = None;
         self.with_frame(body, node_radius, view, dt, |f, body, frame| {
             progress = Some(f.deviation.begin(body, frame));
@@ -551,6 +551,7 @@ impl Feedback {
             f.deviation
                 .measure_range(body, frame, csr, decay, &mut progress, upto);
             if let Some((bound, recent)) = finish {
+                f.measurements += 1;
                 f.deviation.end(body, progress);
                 let (budget, projected) =
                     f.error_priorities(body, frame, bound, partial.warm, recent);
