@@ -80,9 +80,10 @@
 //! the full-detail frame at the host's rate, 5 s of simulated time, frames from the first
 //! second on) 72–76% of frames were within ±10% at 120 Hz, 81–87% now; 38–50% at 240 Hz, 66–86%
 //! now; at 144 Hz 2–34% with a mean of 0.87 of the target, 10–29% now with a mean of 0.99–1.01.
-//! It does not settle: the cloths are few and unequal, and at 144 Hz, where a step is 2.4
-//! frames, the two groups drift across each other's frames and the parts land where the step
-//! was expected, not where it comes.
+//! It does not settle: the cloths are few and unequal, and at 144 Hz a step is 2.4 frames, so
+//! twelve frames hold five steps of each cloth: two groups put ten group-steps in twelve
+//! frames, and two frames in twelve step nothing whatever their offsets; frames of equal work
+//! would take twelve groups of equal work.
 
 use std::sync::Arc;
 
