@@ -85,6 +85,8 @@ pub struct AdaptiveCloth {
     /// What ran ahead of the next step ([`AdaptiveCloth::evaluate_ahead`],
     /// [`AdaptiveCloth::evaluate_ahead_part`]): reported with that step.
     ahead: Ahead,
+    /// See [`AdaptiveCloth::parts_lost`].
+    parts_lost: u64,
 }
 
 /// Work of the next step's evaluation run ahead of it, reported with that step.
@@ -164,6 +166,7 @@ impl AdaptiveCloth {
             contact: ContactMemory::default(),
             evaluation_phase: 0,
             ahead: Ahead::default(),
+            parts_lost: 0,
         })
     }
 
@@ -214,7 +217,7 @@ impl AdaptiveCloth {
     /// The soft body, mutably (pins, forces, settings). Refines and coarses begun through it
     /// directly are not counted in the statistics.
     pub fn body_mut(&mut self) -> &mut TreeCutSoftBody {
-        self.forget_partial();
+        self.lose_partial();
         &mut self.body
     }
 
@@ -367,7 +370,7 @@ impl AdaptiveCloth {
     /// nothing changed, if it is not on the cut, a leaf, or locked by a transition in flight.
     pub fn refine(&mut self, node: NodeId) -> Result<(), ClothError> {
         self.body.begin_refine(node)?;
-        self.forget_partial();
+        self.lose_partial();
         self.record(node, OP_REFINE);
         Ok(())
     }
@@ -376,7 +379,7 @@ impl AdaptiveCloth {
     /// with nothing changed, unless all its children are on the cut and unlocked.
     pub fn coarse(&mut self, parent: NodeId) -> Result<(), ClothError> {
         self.body.begin_coarse(parent)?;
-        self.forget_partial();
+        self.lose_partial();
         self.record(parent, OP_COARSE);
         Ok(())
     }
@@ -545,6 +548,27 @@ impl AdaptiveCloth {
         if let Some(f) = self.feedback.as_mut() {
             f.drop_partial();
         }
+    }
+
+    /// [`AdaptiveCloth::forget_partial`] for a change from outside the loop (the host's),
+    /// counted in `parts_lost` when a measurement was under way.
+    fn lose_partial(&mut self) {
+        if self
+            .feedback
+            .as_ref()
+            .is_some_and(|f| f.measured_ahead() > 0)
+        {
+            self.parts_lost += 1;
+        }
+        self.forget_partial();
+    }
+
+    /// Measurements begun ahead ([`AdaptiveCloth::evaluate_ahead_part`]) that a change from
+    /// outside the loop (`body_mut`, `refine`, `coarse`) made the step measure again: a world
+    /// stops splitting the evaluations of a cloth whose host moves it between frames (a cape
+    /// whose pins follow a character), whose parts would be lost every time.
+    pub(crate) fn parts_lost(&self) -> u64 {
+        self.parts_lost
     }
 
     /// Runs the feedback stage once now, seeing the cloth through `view`: salience, evaluator,

@@ -135,6 +135,9 @@ struct ObjectState {
     /// Solver steps per frame of a staggered cloth: the frame's `dt` over its own (at the last
     /// `stagger_steps`; 1/2.4 at 144 Hz with 60 Hz cloths, though it joins one of 2 groups).
     step_rate: f64,
+    /// The cloth's [`AdaptiveCloth::parts_lost`] when it joined the budget: once its host has
+    /// made a part be measured again, its evaluations are no longer split.
+    parts_lost: Option<u64>,
     /// Time its regroupings (`stagger_steps`) added to what it owes, in all, s.
     regrouped: f64,
 }
@@ -148,6 +151,7 @@ impl Default for ObjectState {
             phase: None,
             stagger: None,
             step_rate: 1.0,
+            parts_lost: None,
             step_settled_units: 0.0,
             regrouped: 0.0,
         }
@@ -524,6 +528,7 @@ impl FrameBudgeter {
         for (key, cloth) in cloths {
             let state = self.objects.entry(key).or_default();
             state.seen = self.frames;
+            state.parts_lost.get_or_insert(cloth.parts_lost());
             let share = state.share;
             let bound = self.bound_for(share, frame);
             if let Err(e) = apply_cloth_share(cloth, share, bound) {
@@ -586,12 +591,13 @@ impl FrameBudgeter {
             job.split_next = self
                 .objects
                 .get(&job.key)
-                .is_some_and(|s| s.stagger.is_none());
+                .is_some_and(|s| s.stagger.is_none() && splits(s, job.cloth));
             if let Some(state) = self.objects.get(&job.key)
                 && let Some((m, group)) = state.stagger
                 && m >= 2
                 && job.steps == 0
                 && job.cloth.evaluation_due()
+                && splits(state, job.cloth)
             {
                 let (m, group) = (m as u64, group as u64);
                 let spread = m.min(MAX_SPREAD_FRAMES);
@@ -970,7 +976,7 @@ impl FrameBudgeter {
             // Its evaluation's parts: the `spread` frames up to its evaluating step (one frame,
             // the step's, unless staggered); the cycle repeats, so earlier frames wrap round.
             let cycle = m * interval;
-            let spread = if !in_parts(job.cloth) {
+            let spread = if !splits(state, job.cloth) {
                 1
             } else if m == 1 {
                 2
@@ -1018,12 +1024,14 @@ impl FrameBudgeter {
 /// shorter than a step.
 pub(crate) const MAX_SPREAD_FRAMES: u64 = 16;
 
-/// Whether `cloth`'s evaluations are measured in parts (an error-bound budget's are; see
-/// [`AdaptiveCloth::evaluate_ahead_part`]).
-fn in_parts(cloth: &AdaptiveCloth) -> bool {
-    cloth
-        .feedback()
-        .is_some_and(|f| matches!(f.budget, crate::cloth::ClothBudget::MaxErrorPx(_)))
+/// Whether `cloth`'s evaluations are measured in parts: an error-bound budget's are (see
+/// [`AdaptiveCloth::evaluate_ahead_part`]), unless its host has changed it between a part and
+/// its step since it joined the budget (its parts would be lost every frame).
+fn splits(state: &ObjectState, cloth: &AdaptiveCloth) -> bool {
+    state.parts_lost == Some(cloth.parts_lost())
+        && cloth
+            .feedback()
+            .is_some_and(|f| matches!(f.budget, crate::cloth::ClothBudget::MaxErrorPx(_)))
 }
 
 /// Frames of `dt` per solver step of `cloth`, rounded, at least 1 (and 1 for a `dt` that is

@@ -603,3 +603,43 @@ fn staggered_cost_counts_at_the_cloths_step_rate() {
         "mean frame cost {mean:.3} of the target"
     );
 }
+
+/// A cloth whose host changes it between frames (re-pinning a vertex, as a cape's pins follow
+/// a character) loses a part of an evaluation measured ahead once: the world then stops
+/// splitting its evaluations, instead of measuring half of one for nothing every time. A cloth
+/// left alone keeps its parts.
+#[test]
+fn a_cloth_moved_between_frames_is_not_split() {
+    let run = |touch: bool| {
+        let mut w = World::new(WorldBudget {
+            target: BudgetTarget::CostUnits(1e9),
+            ..WorldBudget::default()
+        })
+        .unwrap();
+        let k = w.add_cloth(hanging(17, 1.2, Vec3::new(-0.6, 1.8, -2.0), 1, true));
+        let pinned = GridSpec {
+            cols: 17,
+            rows: 17,
+            origin: Vec3::new(-0.6, 1.8, -2.0),
+            u: Vec3::new(1.2 / 16.0, 0.0, 0.0),
+            v: Vec3::new(0.0, -1.2 / 16.0, 0.0),
+            vertex_mass: 0.3 / 289.0,
+        };
+        for f in 0..60 {
+            if touch {
+                w.cloth_mut(k)
+                    .unwrap()
+                    .body_mut()
+                    .pin_vertex(pinned.vertex(0, 0), pinned.position(0, 0))
+                    .unwrap();
+            }
+            w.step(DT, &view(f)).unwrap();
+        }
+        let c = w.cloth(k).unwrap();
+        (c.parts_lost(), c.stats().evaluations)
+    };
+    let (lost, evaluations) = run(true);
+    assert!(evaluations >= 10);
+    assert_eq!(lost, 1, "split once, then not again");
+    assert_eq!(run(false).0, 0);
+}
