@@ -1854,8 +1854,8 @@ SlodResult slod_cloth_step(struct SlodWorld *world, struct SlodClothId cloth);
  * it makes that frame the longest; run in the frame between, it evens the two. Nothing of the
  * cloth moves between its steps, so the evaluation measures the state the step would, seen
  * through the world's current view, and its refines and coarses begin now, to blend from the
- * next step on. `slod_world_step` spreads its cloths' evaluations over its frames itself when
- * its `dt` is shorter than theirs (in parts: `slod_cloth_evaluate_ahead_part`).
+ * next step on. `slod_world_step` spreads its cloths' evaluations over its frames itself (in
+ * parts: `slod_cloth_evaluate_ahead_part`).
  * Threads: mutates the world; with feedback `parallel` the salience stage uses the world's
  * worker threads. Errors: `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_REFUSED` if the feedback stage
  * refused its inputs (`*out_evaluated` then false); `SLOD_RESULT_NULL_ARGUMENT` for a NULL
@@ -1881,7 +1881,8 @@ SlodResult slod_cloth_evaluate_ahead(struct SlodWorld *world,
  * measures one state, through the first part's view: the result is the evaluation
  * `slod_cloth_evaluate_ahead` would have run at the first part. Anything that changes the
  * cloth in between (pins, refine, coarse) drops the parts and the step measures again.
- * `slod_world_step` does this itself for its cloths when its `dt` is shorter than theirs.
+ * `slod_world_step` does this itself for its cloths: over the frames between their steps when
+ * its `dt` is shorter than theirs, else half in the frame before each evaluating step.
  * Threads: mutates the world. Errors: `SLOD_RESULT_STALE_ID`; `SLOD_RESULT_INVALID_ARGUMENT`
  * for a NaN `fraction` (nothing run); `SLOD_RESULT_NULL_ARGUMENT` for a NULL `out_ran`.
  *

@@ -62,6 +62,33 @@ fn feedback_runs_are_bit_identical() {
     assert_eq!(bits(&a), bits(&b));
 }
 
+/// A 17×17 net from `level` under `budget`, evaluated every 3 steps, timed by the cost model (so
+/// runs compare bit for bit, their time samples included).
+fn modelled_net(level: u32, budget: ClothBudget) -> AdaptiveCloth {
+    let mut c = net(17, level, TreeCutSettings::default());
+    c.set_step_clock(StepClock::Model(CostModel::default()))
+        .unwrap();
+    c.set_feedback(Some(FeedbackSettings {
+        budget,
+        interval: 3,
+        ..FeedbackSettings::default()
+    }))
+    .unwrap();
+    c
+}
+
+/// What two runs that should be the same are compared by: positions, cut and statistics (the
+/// last step's work aside: a step after an evaluation run ahead does not count it).
+fn outcome(c: &AdaptiveCloth) -> (Vec<glam::Vec4>, Vec<NodeId>, super::ClothStats) {
+    let mut stats = *c.stats();
+    stats.last_work = Default::default();
+    (
+        c.body().particle_positions().to_vec(),
+        c.body().cut().active().to_vec(),
+        stats,
+    )
+}
+
 /// An evaluation run ahead of its step (`evaluate_ahead`, as a world whose frames are shorter
 /// than the cloth's step does on a frame the cloth does not step in) is the step's own: seen
 /// through the same view, the run is bit-identical to one that evaluates inside its steps —
@@ -70,15 +97,7 @@ fn feedback_runs_are_bit_identical() {
 #[test]
 fn evaluation_ahead_is_the_steps_own() {
     let run = |ahead: bool| {
-        let mut c = net(17, 0, TreeCutSettings::default());
-        c.set_step_clock(StepClock::Model(CostModel::default()))
-            .unwrap();
-        c.set_feedback(Some(FeedbackSettings {
-            budget: ClothBudget::TargetStepMs(0.05),
-            interval: 3,
-            ..FeedbackSettings::default()
-        }))
-        .unwrap();
+        let mut c = modelled_net(0, ClothBudget::TargetStepMs(0.05));
         let mut ran = 0;
         for _ in 0..90 {
             if ahead {
@@ -97,17 +116,10 @@ fn evaluation_ahead_is_the_steps_own() {
                 assert_eq!(c.stats().last_work.evaluated_nodes, 0);
             }
         }
-        let mut stats = *c.stats();
-        stats.last_work = Default::default();
-        (
-            c.body().particle_positions().to_vec(),
-            c.body().cut().active().to_vec(),
-            stats,
-            ran,
-        )
+        (outcome(&c), ran)
     };
-    let (pa, cut_a, sa, ran) = run(true);
-    let (pb, cut_b, sb, _) = run(false);
+    let ((pa, cut_a, sa), ran) = run(true);
+    let ((pb, cut_b, sb), _) = run(false);
     assert_eq!(ran, 30);
     assert!(sa.refines + sa.coarses > 0);
     assert_eq!(cut_a, cut_b);
@@ -124,15 +136,7 @@ fn evaluation_ahead_is_the_steps_own() {
 #[test]
 fn evaluation_in_parts_is_the_steps_own() {
     let run = |parts: &[f32], touch: bool| {
-        let mut c = net(17, 1, TreeCutSettings::default());
-        c.set_step_clock(StepClock::Model(CostModel::default()))
-            .unwrap();
-        c.set_feedback(Some(FeedbackSettings {
-            budget: ClothBudget::MaxErrorPx(0.5),
-            interval: 3,
-            ..FeedbackSettings::default()
-        }))
-        .unwrap();
+        let mut c = modelled_net(1, ClothBudget::MaxErrorPx(0.5));
         for _ in 0..90 {
             if c.evaluation_due() {
                 let mut measured = 0;
@@ -151,13 +155,7 @@ fn evaluation_in_parts_is_the_steps_own() {
             }
             c.step(&camera()).unwrap();
         }
-        let mut stats = *c.stats();
-        stats.last_work = Default::default();
-        (
-            c.body().particle_positions().to_vec(),
-            c.body().cut().active().to_vec(),
-            stats,
-        )
+        outcome(&c)
     };
     let (pa, cut_a, sa) = run(&[0.3, 0.6], false);
     let (pb, cut_b, sb) = run(&[], false);

@@ -581,30 +581,30 @@ impl FrameBudgeter {
         if redraw {
             self.balance_phases(&mut jobs);
         }
-        // A staggered cloth not stepping now measures the next part of its next step's
+        // A cloth stepping on every frame measures half of its next step's evaluation after
+        // this frame's steps (the state that step will see), the step the other half. A
+        // staggered cloth not stepping now measures the next part of its next step's
         // evaluation when that step evaluates and is fewer than `spread` frames away: after
         // this frame, `(spread − until) / spread` of its nodes (with frames of varying length
         // the step may come sooner: it then finishes what is left).
-        // A cloth stepping on every frame measures half of its next step's evaluation after
-        // this frame's steps (the state that step will see), the step the other half.
         for job in &mut jobs {
-            job.split_next = self
-                .objects
-                .get(&job.key)
-                .is_some_and(|s| s.stagger.is_none() && splits(s, job.cloth));
-            if let Some(state) = self.objects.get(&job.key)
-                && let Some((m, group)) = state.stagger
-                && m >= 2
-                && job.steps == 0
-                && job.cloth.evaluation_due()
-                && splits(state, job.cloth)
-            {
-                let (m, group) = (m as u64, group as u64);
-                let spread = m.min(MAX_SPREAD_FRAMES);
-                let until = (m - 1 + m - (self.frames + group) % m) % m;
-                if until < spread {
-                    job.part = Some((spread - until) as f32 / spread as f32);
+            let Some(state) = self.objects.get(&job.key) else {
+                continue;
+            };
+            if !splits(state, job.cloth) {
+                continue;
+            }
+            match state.stagger {
+                None => job.split_next = true,
+                Some((m, group)) if job.steps == 0 && job.cloth.evaluation_due() => {
+                    let (m, group) = (m as u64, group as u64);
+                    let spread = m.min(MAX_SPREAD_FRAMES);
+                    let until = group_wait(self.frames, m, group);
+                    if until < spread {
+                        job.part = Some((spread - until) as f32 / spread as f32);
+                    }
                 }
+                Some(_) => {}
             }
         }
         if let Err(e) = self.cap_transitions(&mut jobs) {
@@ -951,8 +951,9 @@ impl FrameBudgeter {
                 continue;
             };
             let (m, group) = (m as u64, group as u64);
+            let wait = group_wait(self.frames, m, group);
             for t in 0..m * interval {
-                if (self.frames + t + group) % m == m - 1 {
+                if t % m == wait {
                     *load.entry((m * interval, t)).or_default() += state.step_settled_units;
                 }
             }
@@ -966,7 +967,7 @@ impl FrameBudgeter {
             let first = if job.steps > 0 {
                 0
             } else {
-                (m - 1 + m - (self.frames + group) % m) % m
+                group_wait(self.frames, m, group)
             };
             let steps = job.cloth.stats().steps;
             let slot = |p: u64| {
@@ -1032,6 +1033,13 @@ fn splits(state: &ObjectState, cloth: &AdaptiveCloth) -> bool {
         && cloth
             .feedback()
             .is_some_and(|f| matches!(f.budget, crate::cloth::ClothBudget::MaxErrorPx(_)))
+}
+
+/// Frames from frame `now` until step group `group` of `m` next steps (0: it steps in frame
+/// `now`): a group steps on the frames `f` with `(f + group) % m == m − 1` (see
+/// `FrameBudgeter::stagger_steps`).
+fn group_wait(now: u64, m: u64, group: u64) -> u64 {
+    (m - 1 + m - (now + group) % m) % m
 }
 
 /// Frames of `dt` per solver step of `cloth`, rounded, at least 1 (and 1 for a `dt` that is
