@@ -982,8 +982,9 @@ typedef struct SlodFeedbackDesc {
    */
   uint32_t priority;
   /**
-   * 1 splits the salience evaluation over the world's worker threads, 0 does not (ignored by
-   * a world created with one worker thread).
+   * 1 lets the evaluation use the world's worker threads (the salience split over them, the
+   * measurement of `overlap_step` run beside the solver), 0 does not (ignored by a world
+   * created with one worker thread).
    */
   uint32_t parallel;
   /**
@@ -1010,6 +1011,17 @@ typedef struct SlodFeedbackDesc {
    * ×64, decaying with a half-life of 2 s of simulated time) until they are that rare.
    */
   float flicker_target;
+  /**
+   * 1: an evaluation's measurement (most of its work) runs while its step's solver runs (on
+   * another of the world's worker threads when `parallel` is 1), and the refines and
+   * coarses it chose begin after that step instead of before it (one step later); 0
+   * (default): before the solver, on the step's thread, as the paper's loop. Results do not
+   * depend on threads (with `parallel` 0, or a world with one worker thread, the two run one
+   * after the other: the same results, no overlap). For a cloth stepped with
+   * `slod_cloth_step`, to shorten the steps that evaluate; `slod_world_step` steps its
+   * cloths in parallel already.
+   */
+  uint32_t overlap_step;
 } SlodFeedbackDesc;
 
 /**
@@ -1838,7 +1850,8 @@ SlodResult slod_cloth_destroy(struct SlodWorld *world, struct SlodClothId cloth)
  * world; with feedback `parallel` the salience stage uses the world's worker threads. Errors:
  * `SLOD_RESULT_STALE_ID` (also when the character wearing the cloth was destroyed: release it
  * with `slod_cloth_detach_character`); `SLOD_RESULT_REFUSED` if the feedback stage refused its
- * inputs (nothing stepped).
+ * inputs (nothing stepped; with the desc's `overlap_step`, a refusal after the measurement
+ * began is reported after the step ran, its operations not begun).
  *
  * # Safety
  * `world` NULL or a live world.

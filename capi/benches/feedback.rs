@@ -1,7 +1,9 @@
 //! The closed loop's costs on the paper's 65×65 swinging net: one step of the full-resolution
 //! cloth, one step of the adaptive cloth at 75% and 30% (evaluation amortised over its
 //! interval), and one feedback evaluation on its own (salience, normals, evaluator, operations),
-//! by node budget and under a 1 px on-screen error bound.
+//! by node budget and under a 1 px on-screen error bound; and one feedback interval (five steps,
+//! one of them evaluating) under the bound with the evaluation before the solver and overlapped
+//! with it (`FeedbackSettings::overlap_step`, on the rayon pool).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use slod::cloth::{AdaptiveCloth, ClothBudget, FeedbackSettings};
@@ -9,6 +11,10 @@ use slod_experiments::net::NetConfig;
 use softbody::TreeCutSettings;
 
 fn cloth(config: &NetConfig, budget: Option<ClothBudget>) -> AdaptiveCloth {
+    cloth_with(config, budget, false)
+}
+
+fn cloth_with(config: &NetConfig, budget: Option<ClothBudget>, overlap: bool) -> AdaptiveCloth {
     let spec = config.grid();
     let n = config.size;
     let mut c = AdaptiveCloth::grid(&spec, 0, TreeCutSettings::default()).unwrap();
@@ -20,6 +26,8 @@ fn cloth(config: &NetConfig, budget: Option<ClothBudget>) -> AdaptiveCloth {
     if let Some(budget) = budget {
         c.set_feedback(Some(FeedbackSettings {
             budget,
+            overlap_step: overlap,
+            parallel: overlap,
             ..config.feedback
         }))
         .unwrap();
@@ -55,6 +63,16 @@ fn bench(c: &mut Criterion) {
     g.bench_function("evaluate/error1px", |b| {
         b.iter(|| cl.evaluate(&config.view).unwrap());
     });
+    for (name, overlap) in [("before", false), ("overlapped", true)] {
+        let mut cl = cloth_with(&config, Some(ClothBudget::MaxErrorPx(1.0)), overlap);
+        g.bench_function(format!("interval/error1px/{name}"), |b| {
+            b.iter(|| {
+                for _ in 0..config.feedback.interval {
+                    cl.step(&config.view).unwrap();
+                }
+            });
+        });
+    }
     g.finish();
 }
 

@@ -6,6 +6,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use serde::Serialize;
+use slod_experiments::net::NetConfig;
+use slod_experiments::overlap;
+use slod_experiments::table::Table;
 use slod_experiments::world::{self, WorldConfig, WorldReport};
 
 use crate::error::DemoError;
@@ -18,6 +21,8 @@ pub(crate) const DEFAULT_FRAMES: u32 = 300;
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct WorldPlan {
     pub(crate) config: WorldConfig,
+    /// The overlap measurement's warm-up steps and feedback intervals measured.
+    pub(crate) overlap: (u32, u32),
 }
 
 impl WorldPlan {
@@ -40,7 +45,8 @@ impl WorldPlan {
         if let Some(ms) = target_ms {
             config.target_ms = ms;
         }
-        WorldPlan { config }
+        let overlap = if quick { (20, 6) } else { (240, 120) };
+        WorldPlan { config, overlap }
     }
 }
 
@@ -61,6 +67,28 @@ pub(crate) struct WorldObjectReport {
     pub(crate) mean_detail_fraction: f64,
     /// The same over the frames its centre was in view (null if never).
     pub(crate) in_view_detail_fraction: Option<f64>,
+}
+
+/// The paper's net stepped alone, its evaluations before the solver or overlapped with it
+/// ([`slod_experiments::overlap`]).
+#[derive(Clone, Debug, Serialize)]
+pub(crate) struct OverlapReport {
+    /// `30%`, `100%` or `1 px`.
+    pub(crate) budget: String,
+    /// Mean simulated nodes.
+    pub(crate) nodes: f64,
+    /// Threads of the pool the overlapped measurement ran on.
+    pub(crate) threads: usize,
+    /// Median step without evaluation, ms.
+    pub(crate) plain_step_ms: f64,
+    /// Median evaluating step, evaluation before the solver, ms.
+    pub(crate) evaluating_step_ms_sequential: f64,
+    /// Median evaluating step, evaluation overlapped with the solver, ms.
+    pub(crate) evaluating_step_ms_overlapped: f64,
+    /// `evaluating_step_ms_sequential / plain_step_ms`: the spike.
+    pub(crate) spike_sequential: f64,
+    /// `evaluating_step_ms_overlapped / plain_step_ms`.
+    pub(crate) spike_overlapped: f64,
 }
 
 /// The deterministic cost-unit run as reported.
@@ -157,6 +185,8 @@ pub(crate) struct WorldSection {
     pub(crate) per_object: Vec<WorldObjectReport>,
     /// The deterministic variant.
     pub(crate) cost_units: CostUnitsReport,
+    /// The TreeCut evaluation off its step's critical path, on a cloth stepped alone.
+    pub(crate) evaluation_overlap: Vec<OverlapReport>,
     /// Wall time of the section, s.
     pub(crate) seconds: f64,
 }
@@ -182,7 +212,28 @@ pub(crate) fn run(plan: &WorldPlan, progress: Progress) -> Result<WorldOutcome, 
     })
     .map_err(|e| DemoError::Internal(format!("world: {e}")))?;
     bar.finish_and_clear();
-    let text = world::format_table(&report);
+    let (warm, intervals) = plan.overlap;
+    let net = NetConfig::paper().map_err(|e| DemoError::Internal(format!("overlap: {e}")))?;
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let evaluation_overlap: Vec<OverlapReport> = overlap::measure(&net, warm, intervals)
+        .map_err(|e| DemoError::Internal(format!("overlap: {e}")))?
+        .into_iter()
+        .map(|r| OverlapReport {
+            spike_sequential: r.evaluating_step_ms_sequential / r.plain_step_ms.max(1e-9),
+            spike_overlapped: r.evaluating_step_ms_overlapped / r.plain_step_ms.max(1e-9),
+            budget: r.budget,
+            nodes: r.nodes,
+            threads,
+            plain_step_ms: r.plain_step_ms,
+            evaluating_step_ms_sequential: r.evaluating_step_ms_sequential,
+            evaluating_step_ms_overlapped: r.evaluating_step_ms_overlapped,
+        })
+        .collect();
+    let text = format!(
+        "{}\n{}",
+        world::format_table(&report),
+        overlap_table(&evaluation_overlap)
+    );
     let b = &report.budgeted;
     let cu = &report.cost_units;
     let per_object = report
@@ -241,6 +292,7 @@ pub(crate) fn run(plan: &WorldPlan, progress: Progress) -> Result<WorldOutcome, 
             p99_units: cu.p99_measured,
             undone_fraction: cu.undone_fraction,
         },
+        evaluation_overlap,
         seconds: start.elapsed().as_secs_f64(),
     };
     Ok(WorldOutcome {
@@ -248,6 +300,38 @@ pub(crate) fn run(plan: &WorldPlan, progress: Progress) -> Result<WorldOutcome, 
         report,
         text,
     })
+}
+
+/// The overlap measurement as a table.
+fn overlap_table(rows: &[OverlapReport]) -> String {
+    let threads = rows.first().map_or(0, |r| r.threads);
+    let mut t = Table::new(
+        format!(
+            "The net stepped alone: its evaluating step (every 5th) with the evaluation before \
+             the solver or overlapped with it (medians, {threads} threads)"
+        ),
+        &[
+            "budget",
+            "nodes",
+            "plain step ms",
+            "evaluating ms, before",
+            "overlapped",
+            "spike before",
+            "overlapped",
+        ],
+    );
+    for r in rows {
+        t.row([
+            r.budget.clone(),
+            format!("{:.0}", r.nodes),
+            format!("{:.3}", r.plain_step_ms),
+            format!("{:.3}", r.evaluating_step_ms_sequential),
+            format!("{:.3}", r.evaluating_step_ms_overlapped),
+            format!("{:.2}x", r.spike_sequential),
+            format!("{:.2}x", r.spike_overlapped),
+        ]);
+    }
+    t.render()
 }
 
 /// The section's plots: frame time and bound, and the budget spent per object.

@@ -14,6 +14,8 @@
 //! - [`screen`] — what a viewer sees: on-screen error in pixels through a view, and pops.
 //! - [`world`] — one frame budget for a whole world (issue 15): 16 cloths and a 1,000-character
 //!   crowd along a street, a flying camera, 4 ms per frame, against a full-detail reference.
+//! - [`overlap`] — the TreeCut evaluation off its step's critical path (issue 15): the net's
+//!   evaluating steps with the evaluation before the solver and overlapped with it.
 //! - [`rng`] — the one seeded generator; [`table`] — aligned plain-text tables.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -23,6 +25,7 @@ pub mod crowd;
 pub mod crowd_large;
 pub mod engine;
 pub mod net;
+pub mod overlap;
 pub mod perception;
 pub mod rig;
 pub mod rng;

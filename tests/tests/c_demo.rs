@@ -218,6 +218,13 @@ fn c_demo_runs_the_net_and_the_crowd() {
         "{high}"
     );
     assert_eq!(field::<i32>(high, "identical"), 1, "{high}");
+    // A net whose evaluations overlap its steps ends the same on two worker threads as on one.
+    let overlap = lines
+        .iter()
+        .find(|l| l.starts_with("overlap"))
+        .expect("overlap line");
+    assert_eq!(field::<usize>(overlap, "steps"), 240);
+    assert_eq!(field::<i32>(overlap, "identical"), 1, "{overlap}");
     assert!(out.contains("world left cloths 0 rigs 0 crowds 0 characters 0"));
     assert!(out.trim_end().ends_with("demo ok"));
 }

@@ -85,6 +85,9 @@ pub struct AdaptiveCloth {
     /// What ran ahead of the next step ([`AdaptiveCloth::evaluate_ahead`],
     /// [`AdaptiveCloth::evaluate_ahead_part`]): reported with that step.
     ahead: Ahead,
+    /// Wall seconds the last overlapped measurement added to its step's solver (see
+    /// [`FeedbackSettings::overlap_step`]).
+    overlap_seconds: f64,
     /// See [`AdaptiveCloth::parts_lost`].
     parts_lost: u64,
 }
@@ -166,6 +169,7 @@ impl AdaptiveCloth {
             contact: ContactMemory::default(),
             evaluation_phase: 0,
             ahead: Ahead::default(),
+            overlap_seconds: 0.0,
             parts_lost: 0,
         })
     }
@@ -413,7 +417,16 @@ impl AdaptiveCloth {
         // What ran ahead is this step's evaluation (see `evaluate_ahead`): reported with it.
         let ahead = std::mem::take(&mut self.ahead);
         let mut eval_seconds = (ahead.nodes > 0 || ahead.finished).then_some(ahead.seconds);
-        if due {
+        let overlap = due
+            && self
+                .feedback
+                .as_ref()
+                .is_some_and(|f| f.settings.overlap_step);
+        if overlap {
+            // Prepared now (what can fail fails before anything moved), measured beside the
+            // solver, concluded after it.
+            eval_seconds = Some(ahead.seconds + self.prepare_overlapped(view, &mut work)?);
+        } else if due {
             eval_seconds = Some(ahead.seconds + self.feedback_stage(view, &mut work)?);
         }
         let solver = self.body.settings().solver;
@@ -424,11 +437,24 @@ impl AdaptiveCloth {
         work.transition_substeps = work.transitions * passes;
         self.stats.last_work = work;
         let nodes = self.body.particle_count();
-        self.body.step();
-        // A measurement begun ahead for an evaluation this step did not run (its phase moved)
-        // measured a state that is gone.
-        self.forget_partial();
-        self.contact.after_step(&self.body);
+        let mut late = Ok(());
+        if overlap {
+            let measured = self.step_overlapped();
+            self.contact.after_step(&self.body);
+            // The operations begin after the step (the sequential evaluation's begin before
+            // it): recorded at this step, as theirs.
+            let t = Instant::now();
+            late = measured.and_then(|()| self.conclude_overlapped());
+            if let Some(e) = eval_seconds.as_mut() {
+                *e += self.overlap_seconds + t.elapsed().as_secs_f64();
+            }
+        } else {
+            self.body.step();
+            // A measurement begun ahead for an evaluation this step did not run (its phase
+            // moved) measured a state that is gone.
+            self.forget_partial();
+            self.contact.after_step(&self.body);
+        }
         self.stats.steps += 1;
         let (seconds, eval_seconds) = match self.clock {
             StepClock::Wall => (start.elapsed().as_secs_f64() + ahead.seconds, eval_seconds),
@@ -455,7 +481,75 @@ impl AdaptiveCloth {
                 transitions: work.transitions as usize,
             });
         }
-        Ok(())
+        late
+    }
+
+    /// The first part of an evaluation overlapped with its step
+    /// ([`FeedbackSettings::overlap_step`]): the time controller's interval closed, the
+    /// measurement prepared (copies of what it reads). Returns its wall seconds.
+    fn prepare_overlapped(&mut self, view: &View, work: &mut StepWork) -> Result<f64, ClothError> {
+        let t = Instant::now();
+        let measured = self.feedback.as_ref().map_or(0, |f| f.measured_ahead());
+        let dt = self.body.settings().solver.dt;
+        let Some(f) = self.feedback.as_mut() else {
+            return Ok(0.0);
+        };
+        f.prepare(&self.body, &self.node_normals, &self.node_radius, view, dt)?;
+        if let Some(c) = f.controller.as_mut() {
+            c.end_interval();
+        }
+        work.evaluated_nodes = self.body.particle_count().saturating_sub(measured) as u64;
+        Ok(t.elapsed().as_secs_f64())
+    }
+
+    /// The solver's step with the prepared measurement computed beside it: spawned on the rayon
+    /// pool (the one this runs in, else the global one) while the solver runs on this thread,
+    /// when the settings allow the pool ([`FeedbackSettings::parallel`]), else before the
+    /// solver on this thread (the same results: the measurement reads only its copies). Sets
+    /// `overlap_seconds` to the wall time the measurement added to the solver's.
+    fn step_overlapped(&mut self) -> Result<(), ClothError> {
+        let t = Instant::now();
+        let (body, node_radius) = (&mut self.body, &self.node_radius[..]);
+        let h = body.hierarchy_arc().clone();
+        let Some(feedback) = self.feedback.as_mut() else {
+            body.step();
+            return Ok(());
+        };
+        let mut measured = Ok(());
+        let solver = if feedback.settings.parallel {
+            // The solver stays on this thread (its particles are in this core's caches); the
+            // measurement reads copies, cold wherever it runs.
+            rayon::in_place_scope(|scope| {
+                scope.spawn(|_| measured = feedback.compute(&h, node_radius));
+                let t = Instant::now();
+                body.step();
+                t.elapsed().as_secs_f64()
+            })
+        } else {
+            measured = feedback.compute(&h, node_radius);
+            let t = Instant::now();
+            body.step();
+            t.elapsed().as_secs_f64()
+        };
+        self.overlap_seconds = (t.elapsed().as_secs_f64() - solver).max(0.0);
+        measured
+    }
+
+    /// The last part of an evaluation overlapped with its step: the priorities of the cut as
+    /// the step left it, the evaluator, the operations begun.
+    fn conclude_overlapped(&mut self) -> Result<(), ClothError> {
+        let Some(f) = self.feedback.as_mut() else {
+            return Ok(());
+        };
+        let (now, last_op) = (self.stats.steps, &self.last_op);
+        let recent = |n: NodeId| recent_op(last_op, now, n);
+        let seen = f.conclude(
+            &self.body,
+            &mut self.node_normals,
+            &self.node_radius,
+            &recent,
+        )?;
+        self.plan(&seen)
     }
 
     /// The feedback stage a step runs when it is due: the time controller's interval closed,
@@ -593,8 +687,20 @@ impl AdaptiveCloth {
             self.body.settings().solver.dt,
             &recent,
         )?;
+        self.plan(&seen)
+    }
+
+    /// The evaluation after its measurement (made through `seen`): the contact priorities, the
+    /// node budget, the evaluator, and the operations begun.
+    fn plan(&mut self, seen: &View) -> Result<(), ClothError> {
+        let Some(f) = self.feedback.as_mut() else {
+            return Err(ClothError::Feedback {
+                field: "feedback",
+                reason: "not enabled",
+            });
+        };
         self.contact
-            .raise_priorities(&self.body, &mut f.priorities, &seen);
+            .raise_priorities(&self.body, &mut f.priorities, seen);
         let h = self.body.hierarchy_arc().clone();
         let budget = f.node_budget(h.vertex_count());
         // The operation limit follows the budget (see `FeedbackSettings::ops_per_evaluation`).

@@ -178,6 +178,66 @@ fn evaluation_in_parts_is_the_steps_own() {
     assert!(c.evaluate_ahead_part(&camera(), 0.5).unwrap().is_none());
 }
 
+/// An evaluation overlapped with its step's solver (`overlap_step`) measures the state before
+/// the step and begins its operations after it. Its results do not depend on threads: a run
+/// that spawns the measurement on a pool of two threads (`parallel`) is bit-identical to one
+/// that runs it before the solver on the step's thread, under a node budget, an error bound
+/// (also with half of each measurement made ahead) and a time budget on the modelled clock. It
+/// is not the sequential loop (its operations begin a step later: the mutation "overlap
+/// ignored" fails), its cut stays within a node budget once there, and mass is conserved.
+#[test]
+fn overlapped_evaluation_does_not_depend_on_threads() {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    for budget in [
+        ClothBudget::Compression(0.3),
+        ClothBudget::MaxErrorPx(0.5),
+        ClothBudget::TargetStepMs(0.05),
+    ] {
+        let run = |overlap_step: bool, parallel: bool, ahead: bool| {
+            let mut c = modelled_net(1, budget);
+            c.set_feedback(Some(FeedbackSettings {
+                budget,
+                interval: 3,
+                overlap_step,
+                parallel,
+                ..FeedbackSettings::default()
+            }))
+            .unwrap();
+            let mass = c.body().total_mass();
+            let limit = super::compression_nodes(0.3, 289);
+            let mut within = false;
+            for step in 0..90 {
+                if ahead && c.evaluation_due() {
+                    c.evaluate_ahead_part(&camera(), 0.5).unwrap();
+                }
+                c.step(&camera()).unwrap();
+                assert!((c.body().total_mass() - mass).abs() < 1e-5 * mass);
+                if budget == ClothBudget::Compression(0.3) {
+                    let len = c.body().cut().len();
+                    assert!(
+                        !within || len <= limit,
+                        "left the budget at step {step}: {len}"
+                    );
+                    within |= len <= limit;
+                }
+            }
+            outcome(&c)
+        };
+        let spawned = pool.install(|| run(true, true, false));
+        let inline = run(true, false, false);
+        assert!(spawned.2.refines + spawned.2.coarses > 0, "{budget:?}");
+        assert_eq!(spawned, inline, "{budget:?}");
+        let sequential = run(false, false, false);
+        assert_ne!(spawned.0, sequential.0, "{budget:?}");
+        if matches!(budget, ClothBudget::MaxErrorPx(_)) {
+            assert_eq!(pool.install(|| run(true, true, true)), inline);
+        }
+    }
+}
+
 /// From an over-budget start the loop coarsens until the cut fits, then stays within it, while
 /// mass is conserved throughout.
 #[test]

@@ -171,8 +171,9 @@ pub struct SlodFeedbackDesc {
     pub deformation_weight: f32,
     /// A `SlodPriorityModel` value.
     pub priority: u32,
-    /// 1 splits the salience evaluation over the world's worker threads, 0 does not (ignored by
-    /// a world created with one worker thread).
+    /// 1 lets the evaluation use the world's worker threads (the salience split over them, the
+    /// measurement of `overlap_step` run beside the solver), 0 does not (ignored by a world
+    /// created with one worker thread).
     pub parallel: u32,
     /// Weight of the BSWDF's motion salience, in [0, 1e6] (default 1; 0 leaves only the
     /// deformation term).
@@ -190,6 +191,15 @@ pub struct SlodFeedbackDesc {
     /// [0, 1) (default 0.01; 0 turns it off). Undone operations raise the hysteresis (by up to
     /// ×64, decaying with a half-life of 2 s of simulated time) until they are that rare.
     pub flicker_target: f32,
+    /// 1: an evaluation's measurement (most of its work) runs while its step's solver runs (on
+    /// another of the world's worker threads when `parallel` is 1), and the refines and
+    /// coarses it chose begin after that step instead of before it (one step later); 0
+    /// (default): before the solver, on the step's thread, as the paper's loop. Results do not
+    /// depend on threads (with `parallel` 0, or a world with one worker thread, the two run one
+    /// after the other: the same results, no overlap). For a cloth stepped with
+    /// `slod_cloth_step`, to shorten the steps that evaluate; `slod_world_step` steps its
+    /// cloths in parallel already.
+    pub overlap_step: u32,
 }
 
 /// The default cloth: the paper's swinging net (65×65 vertices 2 m wide, 1 kg, horizontal in
@@ -256,6 +266,7 @@ pub extern "C" fn slod_default_feedback_desc() -> SlodFeedbackDesc {
         view_dependent: u32::from(f.view_dependent),
         rim_weight: f.rim_weight,
         flicker_target: f.flicker_target.unwrap_or(0.0),
+        overlap_step: u32::from(f.overlap_step),
     }
 }
 
@@ -632,7 +643,8 @@ pub(crate) fn cloth_mut(
 /// world; with feedback `parallel` the salience stage uses the world's worker threads. Errors:
 /// `SLOD_RESULT_STALE_ID` (also when the character wearing the cloth was destroyed: release it
 /// with `slod_cloth_detach_character`); `SLOD_RESULT_REFUSED` if the feedback stage refused its
-/// inputs (nothing stepped).
+/// inputs (nothing stepped; with the desc's `overlap_step`, a refusal after the measurement
+/// began is reported after the step ran, its operations not begun).
 ///
 /// # Safety
 /// `world` NULL or a live world.
@@ -929,6 +941,7 @@ impl SlodFeedbackDesc {
         in_range(self.motion_weight, 0.0, 1.0e6, "desc.motion_weight")?;
         check_u32(self.view_dependent, 0, 1, "desc.view_dependent")?;
         in_range(self.rim_weight, 0.0, 1.0e6, "desc.rim_weight")?;
+        check_u32(self.overlap_step, 0, 1, "desc.overlap_step")?;
         if !(self.flicker_target.is_finite() && (0.0..1.0).contains(&self.flicker_target)) {
             return Err(FfiError::invalid(
                 "desc.flicker_target",
@@ -948,6 +961,7 @@ impl SlodFeedbackDesc {
             view_dependent: self.view_dependent == 1,
             rim_weight: self.rim_weight,
             flicker_target: (self.flicker_target > 0.0).then_some(self.flicker_target),
+            overlap_step: self.overlap_step == 1,
             ..FeedbackSettings::default()
         };
         settings

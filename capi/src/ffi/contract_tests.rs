@@ -306,12 +306,7 @@ fn cloth_reconstruction_mode_is_checked_and_reaches_the_cloth() {
 #[test]
 fn evaluation_ahead_is_the_steps_own_across_the_abi() {
     let w = World::new();
-    let desc = SlodClothDesc {
-        columns: 17,
-        rows: 17,
-        initial_level: 1,
-        ..slod_default_cloth_desc()
-    };
+    let desc = net_17();
     let feedback = slod_default_feedback_desc();
     let mut ids = [SlodClothId::default(); 2];
     // SAFETY: live world, valid descs and out pointers.
@@ -348,18 +343,80 @@ fn evaluation_ahead_is_the_steps_own_across_the_abi() {
     assert_eq!(w.positions_17(ids[0]), w.positions_17(ids[1]));
 }
 
+/// A 17 × 17 cloth starting at level 1.
+fn net_17() -> SlodClothDesc {
+    SlodClothDesc {
+        columns: 17,
+        rows: 17,
+        initial_level: 1,
+        ..slod_default_cloth_desc()
+    }
+}
+
+/// The feedback desc's `overlap_step`: 1 with `parallel` 1 (the measurement on the world's
+/// threads beside the solver) and with `parallel` 0 (one after the other) give the same
+/// positions, which are not those of the sequential loop; 2 is refused and changes nothing.
+#[test]
+fn overlapped_evaluation_across_the_abi() {
+    let w = World::new();
+    let desc = net_17();
+    let base = SlodFeedbackDesc {
+        budget_kind: SlodClothBudget::MaxErrorPx as u32,
+        budget_value: 0.5,
+        interval: 3,
+        ..slod_default_feedback_desc()
+    };
+    assert_eq!(base.overlap_step, 0, "off by default");
+    let descs = [(1, 1), (1, 0), (0, 0)].map(|(overlap_step, parallel)| SlodFeedbackDesc {
+        overlap_step,
+        parallel,
+        ..base
+    });
+    let mut ids = [SlodClothId::default(); 3];
+    // SAFETY: live world, valid descs and out pointers.
+    unsafe {
+        for (id, fd) in ids.iter_mut().zip(&descs) {
+            assert_eq!(slod_cloth_create_grid(w.0, &desc, id), SlodResult::Ok);
+            assert_eq!(slod_cloth_set_feedback(w.0, *id, fd), SlodResult::Ok);
+        }
+        let bad = SlodFeedbackDesc {
+            overlap_step: 2,
+            ..base
+        };
+        assert_eq!(
+            slod_cloth_set_feedback(w.0, ids[2], &bad),
+            SlodResult::InvalidArgument
+        );
+        assert!(last().contains("desc.overlap_step"), "{}", last());
+        // Held by two corners of one edge: it swings and bends.
+        for id in ids {
+            let at = w.positions_17(id);
+            for v in [0usize, 16] {
+                let [x, y, z] = [at[3 * v], at[3 * v + 1], at[3 * v + 2]];
+                assert_eq!(
+                    slod_cloth_pin_vertex(w.0, id, v as u32, x, y, z),
+                    SlodResult::Ok
+                );
+            }
+        }
+        for _ in 0..30 {
+            for id in ids {
+                assert_eq!(slod_cloth_step(w.0, id), SlodResult::Ok);
+            }
+        }
+    }
+    let [spawned, inline, sequential] = ids.map(|id| w.positions_17(id));
+    assert!(spawned == inline, "the threads changed the results");
+    assert!(spawned != sequential, "the overlap changed nothing");
+}
+
 /// `slod_cloth_evaluate_ahead_part` measures the next step's evaluation in parts under an error
 /// bound (nothing under another budget), refuses a NaN fraction and a NULL output, and the run
 /// is the same as stepping alone.
 #[test]
 fn evaluation_in_parts_across_the_abi() {
     let w = World::new();
-    let desc = SlodClothDesc {
-        columns: 17,
-        rows: 17,
-        initial_level: 1,
-        ..slod_default_cloth_desc()
-    };
+    let desc = net_17();
     let feedback = SlodFeedbackDesc {
         budget_kind: SlodClothBudget::MaxErrorPx as u32,
         budget_value: 1.0,

@@ -16,19 +16,15 @@ use softbody::TreeCutSoftBody;
 pub(super) struct Strain {
     /// Per particle: summed weighted link strain and summed link weight.
     sums: Vec<(f32, f32)>,
-    /// Per particle: the term the last [`Strain::add_to`] added (`weight ×` mean strain).
+    /// Per particle: `weight ×` its mean link strain, from the last [`Strain::measure`]
+    /// (empty when the term is off).
     pub(super) added: Vec<f32>,
 }
 
 impl Strain {
-    /// Adds `weight ×` each particle's mean link strain to `salience`.
-    pub(super) fn add_to(
-        &mut self,
-        body: &TreeCutSoftBody,
-        positions: &[Vec3],
-        salience: &mut [f32],
-        weight: f32,
-    ) {
+    /// Measures `weight ×` each particle's mean link strain into [`Strain::added`] (reading the
+    /// body's links: done before a measurement that may run while the body steps).
+    pub(super) fn measure(&mut self, body: &TreeCutSoftBody, positions: &[Vec3], weight: f32) {
         let n = positions.len();
         self.sums.clear();
         self.sums.resize(n, (0.0, 0.0));
@@ -44,10 +40,17 @@ impl Strain {
             }
         }
         self.added.clear();
-        for (s, &(sum, w)) in salience.iter_mut().zip(&self.sums) {
-            let term = if w > 0.0 { weight * (sum / w) } else { 0.0 };
+        self.added.extend(
+            self.sums
+                .iter()
+                .map(|&(sum, w)| if w > 0.0 { weight * (sum / w) } else { 0.0 }),
+        );
+    }
+
+    /// Adds the measured term to `salience` (nothing when it is off).
+    pub(super) fn add_to(&self, salience: &mut [f32]) {
+        for (s, &term) in salience.iter_mut().zip(&self.added) {
             *s += term;
-            self.added.push(term);
         }
     }
 }

@@ -51,12 +51,16 @@
 
 use glam::{Mat3, Quat, Vec3};
 use salience::View;
-use softbody::TreeCutSoftBody;
 use softbody::shape::{accumulate, rotation_of};
 
-/// What one estimate looks at: the particles now, node sizes and the view.
+/// What one estimate looks at: the particles now (copies: a measurement may run while the
+/// body steps), node sizes and the view.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Frame<'a> {
+    /// The cloth's hierarchy.
+    pub(super) hierarchy: &'a treecut::Hierarchy,
+    /// The hierarchy node of each particle.
+    pub(super) nodes: &'a [treecut::NodeId],
     /// Particle positions.
     pub(super) positions: &'a [Vec3],
     /// Particle velocities.
@@ -133,35 +137,22 @@ impl Deviation {
     /// salience memory: a swing's turning point would otherwise read as a calm surface, and the
     /// cut would flicker with the swing's period). A node just refined or coarsened inherits its
     /// parent's or children's last estimate scaled to its radius (`(r / r_source)²`).
-    pub(super) fn measure(
-        &mut self,
-        body: &TreeCutSoftBody,
-        frame: &Frame<'_>,
-        csr: (&[u32], &[u32]),
-        decay: f32,
-    ) {
-        let mut progress = self.begin(body, frame);
-        self.measure_range(
-            body,
-            frame,
-            csr,
-            decay,
-            &mut progress,
-            body.particle_count(),
-        );
-        self.end(body, progress);
+    pub(super) fn measure(&mut self, frame: &Frame<'_>, csr: (&[u32], &[u32]), decay: f32) {
+        let mut progress = self.begin(frame);
+        self.measure_range(frame, csr, decay, &mut progress, frame.nodes.len());
+        self.end(frame, progress);
     }
 
     /// Starts a measurement that [`Deviation::measure_range`] carries out in parts (the
     /// particles in order) and [`Deviation::end`] closes: the whole of
     /// [`Deviation::measure`], split over calls on a body that does not change between them.
-    pub(super) fn begin(&mut self, body: &TreeCutSoftBody, frame: &Frame<'_>) -> Progress {
+    pub(super) fn begin(&mut self, frame: &Frame<'_>) -> Progress {
         // The stamp moves on only when the measurement ends: one dropped half-way leaves the
         // last one's estimates in place for the next.
         let previous = self.evaluation;
         let current = previous.wrapping_add(1).max(1);
-        let nodes = body.particle_nodes();
         let Frame {
+            nodes,
             positions,
             node_radius,
             view,
@@ -196,7 +187,6 @@ impl Deviation {
     /// Estimates the particles from the next one not yet measured up to `upto` (exclusive).
     pub(super) fn measure_range(
         &mut self,
-        body: &TreeCutSoftBody,
         frame: &Frame<'_>,
         (offsets, neighbours): (&[u32], &[u32]),
         decay: f32,
@@ -207,6 +197,8 @@ impl Deviation {
             previous, seen_ppu, ..
         } = *progress;
         let Frame {
+            hierarchy: h,
+            nodes,
             positions,
             velocities,
             latency,
@@ -217,8 +209,6 @@ impl Deviation {
             rim_weight,
             ..
         } = *frame;
-        let h = body.hierarchy();
-        let nodes = body.particle_nodes();
         let from = self.particle_px.len();
         for (p, &node) in nodes.iter().enumerate().take(upto).skip(from) {
             let (x_p, rest_p) = (positions[p], h.rest_position(node));
@@ -281,12 +271,23 @@ impl Deviation {
 
     /// Closes a measurement every particle of which was measured: the estimates become the
     /// ones the next measurement holds and inherits from.
-    pub(super) fn end(&mut self, body: &TreeCutSoftBody, progress: Progress) {
+    pub(super) fn end(&mut self, frame: &Frame<'_>, progress: Progress) {
         self.evaluation = progress.current;
-        for (p, &node) in body.particle_nodes().iter().enumerate() {
+        for (p, &node) in frame.nodes.iter().enumerate() {
             self.remembered[node.index()] = self.particle_px[p];
             self.stamps[node.index()] = self.evaluation;
         }
+    }
+
+    /// `node`'s estimate at the last measurement that ended: its own, else (a node whose level
+    /// changed since) its parent's or its children's largest, scaled to its radius.
+    pub(super) fn estimate(
+        &self,
+        h: &treecut::Hierarchy,
+        node: treecut::NodeId,
+        radius: &[f32],
+    ) -> f32 {
+        self.last(h, node, self.evaluation, radius)
     }
 
     /// `node`'s estimate at evaluation `previous`: its own, else its parent's or its children's

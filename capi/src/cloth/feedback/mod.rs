@@ -102,6 +102,13 @@ pub(crate) struct Feedback {
     /// Per hierarchy node: whether it is not a leaf and covers a rim vertex (computed at the
     /// first measurement; see [`FeedbackSettings::rim_weight`]).
     rim: Vec<bool>,
+    /// Copies made by [`Feedback::prepare`]: each particle's node and mass, and the blend of a
+    /// transition (its steps).
+    nodes: Vec<NodeId>,
+    masses: Vec<f32>,
+    blend_steps: u32,
+    /// A measurement between [`Feedback::compute`] and [`Feedback::conclude`].
+    pending: Option<Pending>,
 }
 
 impl Feedback {
@@ -148,6 +155,10 @@ impl Feedback {
             measurements: 0,
             partial: None,
             rim: Vec::new(),
+            nodes: Vec::new(),
+            masses: Vec::new(),
+            blend_steps: 0,
+            pending: None,
         }
     }
 
@@ -246,45 +257,98 @@ impl Feedback {
         dt: f32,
         recent: &dyn Fn(NodeId) -> Recent,
     ) -> Result<View, ClothError> {
-        if let (Some(partial), ClothBudget::MaxErrorPx(bound)) =
-            (self.partial, self.settings.budget)
-        {
-            // Begun ahead (the copies and the neighbour table are made): finished as begun.
-            self.error_bound_measure(body, node_radius, partial, bound, recent);
-            return Ok(partial.view);
-        }
-        self.partial = None;
-        let n = body.particle_count();
-        self.copy_state(body)?;
-        let nbrs = Neighbours::new(&self.offsets, &self.neighbours, n)?;
-        let nodes = body.particle_nodes();
-        if let ClothBudget::MaxErrorPx(bound) = self.settings.budget {
+        self.prepare(body, node_normals, node_radius, view, dt)?;
+        self.compute(body.hierarchy(), node_radius)?;
+        self.conclude(body, node_normals, node_radius, recent)
+    }
+
+    /// The first third of [`Feedback::measure`], the only one that reads the body's particles
+    /// and links: copies of what the measurement reads (positions, velocities, the neighbour
+    /// table, the particles' nodes and masses; the strain term, which reads the links), the
+    /// object's motion, and the view. [`Feedback::compute`] then reads only these copies and
+    /// the hierarchy, so it can run while the body steps (see
+    /// `FeedbackSettings::overlap_step`). Errors (a body whose state cannot be measured: no
+    /// mass, a broken neighbour table) come from here, before anything changed.
+    pub(crate) fn prepare(
+        &mut self,
+        body: &TreeCutSoftBody,
+        node_normals: &[Vec3],
+        node_radius: &[f32],
+        view: &View,
+        dt: f32,
+    ) -> Result<(), ClothError> {
+        self.pending = None;
+        if matches!(self.settings.budget, ClothBudget::MaxErrorPx(_)) {
             // Under an error bound the priorities are the on-screen deviation alone: the
             // normals, the BSWDF and the strain term would be computed for nothing (they were:
-            // about half of each evaluation).
-            let partial = self.begin_error_bound(body, node_radius, view, dt);
-            self.error_bound_measure(body, node_radius, partial, bound, recent);
-            return Ok(*view);
+            // about half of each evaluation). A measurement begun ahead (the copies and the
+            // neighbour table are made) is finished as begun.
+            if self.partial.is_none() {
+                self.copy_state(body)?;
+                let partial = self.begin_error_bound(body.hierarchy(), node_radius, view, dt);
+                self.partial = Some(partial);
+            }
+            return Ok(());
         }
+        self.partial = None;
+        self.copy_state(body)?;
         self.hints.clear();
         self.hints
-            .extend(nodes.iter().map(|&node| node_normals[node.index()]));
+            .extend(self.nodes.iter().map(|&node| node_normals[node.index()]));
+        self.masses.clear();
+        self.masses.extend_from_slice(body.particle_masses());
+        let object = ObjectMotion::centre_of_mass(&self.positions, &self.velocities, &self.masses)?;
+        self.strain.added.clear();
+        if self.settings.deformation_weight > 0.0 {
+            self.strain
+                .measure(body, &self.positions, self.settings.deformation_weight);
+        }
+        self.pending = Some(Pending::Salience {
+            view: *view,
+            seen: *view,
+            object,
+            dt,
+        });
+        Ok(())
+    }
+
+    /// The second third of [`Feedback::measure`], most of its work: the on-screen deviation of
+    /// the particles not measured ahead (under an error bound), or the normals, the BSWDF, the
+    /// strain term and the deviation. Reads only the copies [`Feedback::prepare`] made and the
+    /// hierarchy (which never changes), so it may run while the body steps. Does nothing
+    /// unless a measurement was prepared.
+    pub(crate) fn compute(
+        &mut self,
+        h: &treecut::Hierarchy,
+        node_radius: &[f32],
+    ) -> Result<(), ClothError> {
+        let n = self.nodes.len();
+        if let ClothBudget::MaxErrorPx(bound) = self.settings.budget
+            && let Some(partial) = self.partial.take()
+        {
+            self.carry_on(h, node_radius, partial, n, true);
+            self.pending = Some(Pending::Bound(partial, bound));
+            return Ok(());
+        }
+        let Some(Pending::Salience {
+            view,
+            seen,
+            object,
+            dt,
+        }) = self.pending
+        else {
+            return Ok(());
+        };
+        let nbrs = Neighbours::new(&self.offsets, &self.neighbours, n)?;
         self.normals.resize(n, Vec3::ZERO);
         salience::estimate_normals(&self.positions, &nbrs, &self.hints, &mut self.normals)?;
-        let object = ObjectMotion::centre_of_mass(
-            &self.positions,
-            &self.velocities,
-            body.particle_masses(),
-        )?;
-        let canonical;
         let seen = if self.settings.view_dependent {
-            view
+            seen
         } else {
-            canonical = canonical_view(&self.positions, &self.normals, object.centre, view);
-            &canonical
+            canonical_view(&self.positions, &self.normals, object.centre, &view)
         };
         let job = BswdfJob {
-            view: seen,
+            view: &seen,
             object,
             params: &self.settings.params,
             nodes: Nodes {
@@ -304,23 +368,53 @@ impl Feedback {
             let w = self.settings.motion_weight;
             self.salience.iter_mut().for_each(|s| *s *= w);
         }
-        self.strain.added.clear();
-        if self.settings.deformation_weight > 0.0 {
-            self.strain.add_to(
-                body,
-                &self.positions,
-                &mut self.salience,
-                self.settings.deformation_weight,
-            );
-        }
-        let deviation = self.settings.priority == PriorityModel::ScreenDeviation;
-        if deviation {
+        self.strain.add_to(&mut self.salience);
+        if self.settings.priority == PriorityModel::ScreenDeviation {
             let decay = self.settings.memory_decay(dt);
-            self.with_frame(body, node_radius, view, dt, |f, body, frame| {
+            self.with_frame(h, node_radius, &view, dt, |f, frame| {
                 f.deviation
-                    .measure(body, frame, (&f.offsets, &f.neighbours), decay);
+                    .measure(frame, (&f.offsets, &f.neighbours), decay);
             });
         }
+        self.pending = Some(Pending::Salience {
+            view,
+            seen,
+            object,
+            dt,
+        });
+        Ok(())
+    }
+
+    /// The last third of [`Feedback::measure`]: the priority of every node of the cut as it is
+    /// now (the body may have stepped since [`Feedback::prepare`], ending transitions: a node
+    /// no longer simulated gives its estimate to its parent, and a parent just merged takes
+    /// its children's), and the node budget under an error bound. Returns the view the
+    /// measurement saw the cloth through; refused when no measurement was computed.
+    pub(crate) fn conclude(
+        &mut self,
+        body: &TreeCutSoftBody,
+        node_normals: &mut [Vec3],
+        node_radius: &[f32],
+        recent: &dyn Fn(NodeId) -> Recent,
+    ) -> Result<View, ClothError> {
+        let (view, seen, dt) = match self.pending.take() {
+            Some(Pending::Bound(partial, bound)) => {
+                let (budget, projected) =
+                    self.error_priorities(body, node_radius, bound, partial.warm, recent);
+                self.error_budget = Some(budget);
+                self.projected_nodes = Some(projected);
+                return Ok(partial.view);
+            }
+            Some(Pending::Salience { view, seen, dt, .. }) => (view, seen, dt),
+            None => {
+                return Err(ClothError::Feedback {
+                    field: "measurement",
+                    reason: "none was prepared and computed",
+                });
+            }
+        };
+        let nodes = std::mem::take(&mut self.nodes);
+        let deviation = self.settings.priority == PriorityModel::ScreenDeviation;
         let cut = body.cut();
         let h = body.hierarchy();
         let decay = self.settings.memory_decay(dt);
@@ -390,24 +484,28 @@ impl Feedback {
             let slot = &mut self.priorities[parent.index()];
             *slot = slot.max(value(parent));
         }
-        Ok(*view)
+        self.nodes = nodes;
+        Ok(view)
     }
 
-    /// Runs `run` with the [`Frame`] of the positions and velocities just gathered.
+    /// Runs `run` with the [`Frame`] of the copies [`Feedback::copy_state`] made.
     fn with_frame(
         &mut self,
-        body: &TreeCutSoftBody,
+        h: &treecut::Hierarchy,
         node_radius: &[f32],
         view: &View,
         dt: f32,
-        run: impl FnOnce(&mut Feedback, &TreeCutSoftBody, &Frame<'_>),
+        run: impl FnOnce(&mut Feedback, &Frame<'_>),
     ) {
+        let nodes = std::mem::take(&mut self.nodes);
         let positions = std::mem::take(&mut self.positions);
         let velocities = std::mem::take(&mut self.velocities);
-        let blend = body.settings().blend_steps;
-        self.refresh_rim(body.hierarchy());
+        let blend = self.blend_steps;
+        self.refresh_rim(h);
         let rim = std::mem::take(&mut self.rim);
         let frame = Frame {
+            hierarchy: h,
+            nodes: &nodes,
             positions: &positions,
             velocities: &velocities,
             rim: &rim,
@@ -422,16 +520,20 @@ impl Feedback {
             outside_as_seen: matches!(self.settings.budget, ClothBudget::MaxErrorPx(_))
                 && !self.shared_bound,
         };
-        run(self, body, &frame);
+        run(self, &frame);
+        self.nodes = nodes;
         self.positions = positions;
         self.velocities = velocities;
         self.rim = rim;
     }
 
-    /// The particles' positions and velocities copied, the neighbour table built (and checked):
-    /// what a measurement reads of the body besides its structure.
+    /// The particles' nodes, positions and velocities copied, the neighbour table built (and
+    /// checked): what a measurement reads of the body besides the hierarchy.
     fn copy_state(&mut self, body: &TreeCutSoftBody) -> Result<(), ClothError> {
         let xyz = |v: &Vec4| v.truncate();
+        self.blend_steps = body.settings().blend_steps;
+        self.nodes.clear();
+        self.nodes.extend_from_slice(body.particle_nodes());
         self.positions.clear();
         self.positions
             .extend(body.particle_positions().iter().map(xyz));
@@ -447,7 +549,7 @@ impl Feedback {
     /// the cold-start test, the deviation's start, and what its parts share.
     fn begin_error_bound(
         &mut self,
-        body: &TreeCutSoftBody,
+        h: &treecut::Hierarchy,
         node_radius: &[f32],
         view: &View,
         dt: f32,
@@ -459,8 +561,8 @@ impl Feedback {
         // (Counted when the measurement ends: one dropped half-way does not count.)
         let warm = self.measurements as f32 * period >= self.settings.memory_seconds;
         let mut progress = None;
-        self.with_frame(body, node_radius, view, dt, |f, body, frame| {
-            progress = Some(f.deviation.begin(body, frame));
+        self.with_frame(h, node_radius, view, dt, |f, frame| {
+            progress = Some(f.deviation.begin(frame));
         });
         Partial {
             view: *view,
@@ -491,14 +593,14 @@ impl Feedback {
             Some(p) => p,
             None => {
                 self.copy_state(body)?;
-                self.begin_error_bound(body, node_radius, view, dt)
+                self.begin_error_bound(body.hierarchy(), node_radius, view, dt)
             }
         };
         self.partial = Some(partial);
-        let n = body.particle_count();
+        let n = self.nodes.len();
         let upto = ((fraction.clamp(0.0, 1.0) as f64 * n as f64).ceil() as usize).min(n);
         let before = self.deviation.measured();
-        self.carry_on(body, node_radius, partial, upto, None);
+        self.carry_on(body.hierarchy(), node_radius, partial, upto, false);
         Ok(self.deviation.measured().saturating_sub(before))
     }
 
@@ -516,47 +618,26 @@ impl Feedback {
         self.partial = None;
     }
 
-    /// The measurement under [`ClothBudget::MaxErrorPx`]: the on-screen deviation of every
-    /// particle not yet measured (all of them unless parts ran ahead), then the priorities, the
-    /// node budget and the projection from it, under `bound`.
-    fn error_bound_measure(
-        &mut self,
-        body: &TreeCutSoftBody,
-        node_radius: &[f32],
-        partial: Partial,
-        bound: f32,
-        recent: &dyn Fn(NodeId) -> Recent,
-    ) {
-        self.partial = None;
-        let n = body.particle_count();
-        self.carry_on(body, node_radius, partial, n, Some((bound, recent)));
-    }
-
     /// Measures the deviation of a measurement under way up to particle `upto` (exclusive);
-    /// with `finish` (the bound and the recent-operation test) closes it: the priorities, the
-    /// node budget and the projection from it.
+    /// with `end` closes it (its estimates become the ones the next measurement holds).
     fn carry_on(
         &mut self,
-        body: &TreeCutSoftBody,
+        h: &treecut::Hierarchy,
         node_radius: &[f32],
         partial: Partial,
         upto: usize,
-        finish: Option<(f32, &dyn Fn(NodeId) -> Recent)>,
+        end: bool,
     ) {
         let decay = self.settings.memory_decay(partial.dt);
         let (view, dt) = (partial.view, partial.dt);
-        self.with_frame(body, node_radius, &view, dt, |f, body, frame| {
+        self.with_frame(h, node_radius, &view, dt, |f, frame| {
             let mut progress = partial.progress;
             let csr = (&f.offsets[..], &f.neighbours[..]);
             f.deviation
-                .measure_range(body, frame, csr, decay, &mut progress, upto);
-            if let Some((bound, recent)) = finish {
+                .measure_range(frame, csr, decay, &mut progress, upto);
+            if end {
                 f.measurements += 1;
-                f.deviation.end(body, progress);
-                let (budget, projected) =
-                    f.error_priorities(body, frame, bound, partial.warm, recent);
-                f.error_budget = Some(budget);
-                f.projected_nodes = Some(projected);
+                f.deviation.end(frame, progress);
             }
         });
     }
@@ -576,7 +657,7 @@ impl Feedback {
     fn error_priorities(
         &mut self,
         body: &TreeCutSoftBody,
-        frame: &Frame<'_>,
+        node_radius: &[f32],
         bound: f32,
         merges: bool,
         recent: &dyn Fn(NodeId) -> Recent,
@@ -601,8 +682,10 @@ impl Feedback {
         if let Some(c) = curve.as_mut() {
             c.start(cut.len());
         }
-        for (i, &node) in nodes.iter().enumerate() {
-            let px = self.deviation.particle_px[i];
+        for &node in nodes {
+            // The measurement's estimate (made before the body stepped, if it stepped since:
+            // a node just merged takes its children's, see `Deviation::estimate`).
+            let px = self.deviation.estimate(h, node, node_radius);
             if cut.is_on_cut(node) {
                 // A just-coarsened node competes at an eighth of its estimate: refined again
                 // only above four times the bound. Its first estimates after the merge run high
@@ -645,8 +728,8 @@ impl Feedback {
                 // A coarse in flight: the parent is virtual, its priority its children's largest.
                 let px = h
                     .children(parent)
-                    .filter_map(|c| body.particle_of(c))
-                    .map(|p| self.deviation.particle_px[p.index()])
+                    .filter(|&c| body.particle_of(c).is_some())
+                    .map(|c| self.deviation.estimate(h, c, node_radius))
                     .fold(0.0, f32::max);
                 self.priorities[parent.index()] = px;
                 continue;
@@ -655,13 +738,14 @@ impl Feedback {
             // `deviation` module a node's error grows with its radius squared, so the children's
             // largest estimate scaled to the parent's radius is the parent's, and refining and
             // merging are judged by one measure (a just-refined node is not merged back).
-            let rp = frame.node_radius[parent.index()];
+            let rp = node_radius[parent.index()];
             let px = h
                 .children(parent)
                 .filter_map(|c| {
-                    let p = body.particle_of(c)?;
-                    let rc = frame.node_radius[c.index()];
-                    (rc > 0.0).then(|| self.deviation.particle_px[p.index()] * (rp / rc).powi(2))
+                    body.particle_of(c)?;
+                    let rc = node_radius[c.index()];
+                    (rc > 0.0)
+                        .then(|| self.deviation.estimate(h, c, node_radius) * (rp / rc).powi(2))
                 })
                 .fold(0.0, f32::max);
             let coarsenable = cut.can_coarse(h, parent).is_ok();
@@ -692,6 +776,21 @@ impl Feedback {
         self.curve = shared_curve;
         (budget.max(1) as usize, projected.max(1) as usize)
     }
+}
+
+/// A measurement computed ([`Feedback::compute`]) and not yet concluded.
+#[derive(Clone, Copy, Debug)]
+enum Pending {
+    /// Under [`ClothBudget::MaxErrorPx`] at this bound.
+    Bound(Partial, f32),
+    /// Under another budget: the frame's view, the one the BSWDF saw (the canonical one for a
+    /// loop that is not view-dependent), the object's motion and the solver step.
+    Salience {
+        view: View,
+        seen: View,
+        object: ObjectMotion,
+        dt: f32,
+    },
 }
 
 /// A measurement under [`ClothBudget::MaxErrorPx`] under way (see [`Feedback::measure_part`]).
