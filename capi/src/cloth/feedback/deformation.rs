@@ -9,7 +9,7 @@
 //! nodes and unweighted strain 8.2 px; the other scenes did not change.
 
 use glam::Vec3;
-use softbody::TreeCutSoftBody;
+use softbody::LinkInfo;
 
 /// Reused per-particle sums of link strain and link weight.
 #[derive(Clone, Debug, Default)]
@@ -22,13 +22,13 @@ pub(super) struct Strain {
 }
 
 impl Strain {
-    /// Measures `weight ×` each particle's mean link strain into [`Strain::added`] (reading the
-    /// body's links: done before a measurement that may run while the body steps).
-    pub(super) fn measure(&mut self, body: &TreeCutSoftBody, positions: &[Vec3], weight: f32) {
+    /// Measures `weight ×` each particle's mean link strain into [`Strain::added`], over a
+    /// copy of the body's `links` (a measurement may run while the body steps).
+    pub(super) fn measure(&mut self, links: &[LinkInfo], positions: &[Vec3], weight: f32) {
         let n = positions.len();
         self.sums.clear();
         self.sums.resize(n, (0.0, 0.0));
-        for l in body.links() {
+        for l in links {
             let (a, b) = (l.a.raw() as usize, l.b.raw() as usize);
             if l.rest <= 0.0 || l.weight <= 0.0 {
                 continue;

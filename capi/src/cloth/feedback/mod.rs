@@ -106,6 +106,10 @@ pub(crate) struct Feedback {
     /// transition (its steps).
     nodes: Vec<NodeId>,
     masses: Vec<f32>,
+    /// Per particle: whether its node is on the cut (not a child of a coarse in flight).
+    on_cut: Vec<bool>,
+    /// The body's links (for the strain term).
+    links: Vec<softbody::LinkInfo>,
     blend_steps: u32,
     /// A measurement between [`Feedback::compute`] and [`Feedback::conclude`].
     pending: Option<Pending>,
@@ -157,6 +161,8 @@ impl Feedback {
             rim: Vec::new(),
             nodes: Vec::new(),
             masses: Vec::new(),
+            on_cut: Vec::new(),
+            links: Vec::new(),
             blend_steps: 0,
             pending: None,
         }
@@ -299,10 +305,14 @@ impl Feedback {
         self.masses.extend_from_slice(body.particle_masses());
         let object = ObjectMotion::centre_of_mass(&self.positions, &self.velocities, &self.masses)?;
         self.strain.added.clear();
+        self.links.clear();
         if self.settings.deformation_weight > 0.0 {
-            self.strain
-                .measure(body, &self.positions, self.settings.deformation_weight);
+            self.links.extend(body.links());
         }
+        let cut = body.cut();
+        self.on_cut.clear();
+        self.on_cut
+            .extend(self.nodes.iter().map(|&node| cut.is_on_cut(node)));
         self.pending = Some(Pending::Salience {
             view: *view,
             seen: *view,
@@ -368,6 +378,13 @@ impl Feedback {
             let w = self.settings.motion_weight;
             self.salience.iter_mut().for_each(|s| *s *= w);
         }
+        if self.settings.deformation_weight > 0.0 {
+            self.strain.measure(
+                &self.links,
+                &self.positions,
+                self.settings.deformation_weight,
+            );
+        }
         self.strain.add_to(&mut self.salience);
         if self.settings.priority == PriorityModel::ScreenDeviation {
             let decay = self.settings.memory_decay(dt);
@@ -376,51 +393,11 @@ impl Feedback {
                     .measure(frame, (&f.offsets, &f.neighbours), decay);
             });
         }
-        self.pending = Some(Pending::Salience {
-            view,
-            seen,
-            object,
-            dt,
-        });
-        Ok(())
-    }
-
-    /// The last third of [`Feedback::measure`]: the priority of every node of the cut as it is
-    /// now (the body may have stepped since [`Feedback::prepare`], ending transitions: a node
-    /// no longer simulated gives its estimate to its parent, and a parent just merged takes
-    /// its children's), and the node budget under an error bound. Returns the view the
-    /// measurement saw the cloth through; refused when no measurement was computed.
-    pub(crate) fn conclude(
-        &mut self,
-        body: &TreeCutSoftBody,
-        node_normals: &mut [Vec3],
-        node_radius: &[f32],
-        recent: &dyn Fn(NodeId) -> Recent,
-    ) -> Result<View, ClothError> {
-        let (view, seen, dt) = match self.pending.take() {
-            Some(Pending::Bound(partial, bound)) => {
-                let (budget, projected) =
-                    self.error_priorities(body, node_radius, bound, partial.warm, recent);
-                self.error_budget = Some(budget);
-                self.projected_nodes = Some(projected);
-                return Ok(partial.view);
-            }
-            Some(Pending::Salience { view, seen, dt, .. }) => (view, seen, dt),
-            None => {
-                return Err(ClothError::Feedback {
-                    field: "measurement",
-                    reason: "none was prepared and computed",
-                });
-            }
-        };
         let nodes = std::mem::take(&mut self.nodes);
         let deviation = self.settings.priority == PriorityModel::ScreenDeviation;
-        let cut = body.cut();
-        let h = body.hierarchy();
         let decay = self.settings.memory_decay(dt);
         let previous = self.memory.begin();
         for (i, &node) in nodes.iter().enumerate() {
-            node_normals[node.index()] = self.normals[i];
             let remembered = self.memory.remembered(h, node, previous) * decay;
             self.salience[i] = self.salience[i].max(remembered);
             // Entries filled by maxima below start from zero.
@@ -473,7 +450,7 @@ impl Feedback {
                 self.priorities[node.index()] = value(node);
                 continue;
             };
-            if cut.is_on_cut(node) {
+            if self.on_cut[i] {
                 self.priorities[node.index()] = value(node);
             }
             // Either the parent is on the cut with a coarse in flight (its priority is its
@@ -485,6 +462,48 @@ impl Feedback {
             *slot = slot.max(value(parent));
         }
         self.nodes = nodes;
+        self.pending = Some(Pending::Salience {
+            view,
+            seen,
+            object,
+            dt,
+        });
+        Ok(())
+    }
+
+    /// The last third of [`Feedback::measure`]: the priority of every node of the cut as it is
+    /// now (the body may have stepped since [`Feedback::prepare`], ending transitions: a node
+    /// no longer simulated gives its estimate to its parent, and a parent just merged takes
+    /// its children's), and the node budget under an error bound. Returns the view the
+    /// measurement saw the cloth through; refused when no measurement was computed.
+    pub(crate) fn conclude(
+        &mut self,
+        body: &TreeCutSoftBody,
+        node_normals: &mut [Vec3],
+        node_radius: &[f32],
+        recent: &dyn Fn(NodeId) -> Recent,
+    ) -> Result<View, ClothError> {
+        let view = match self.pending.take() {
+            Some(Pending::Bound(partial, bound)) => {
+                let (budget, projected) =
+                    self.error_priorities(body, node_radius, bound, partial.warm, recent);
+                self.error_budget = Some(budget);
+                self.projected_nodes = Some(projected);
+                return Ok(partial.view);
+            }
+            Some(Pending::Salience { view, .. }) => view,
+            None => {
+                return Err(ClothError::Feedback {
+                    field: "measurement",
+                    reason: "none was prepared and computed",
+                });
+            }
+        };
+        // The priorities were set by `compute` (the cut's membership does not change in a
+        // step: only beginning an operation moves it).
+        for (i, &node) in self.nodes.iter().enumerate() {
+            node_normals[node.index()] = self.normals[i];
+        }
         Ok(view)
     }
 

@@ -196,11 +196,13 @@ pub struct FeedbackSettings {
     /// ([`crate::cloth::ClothStats::last_eval_seconds`]) is then the wall time the evaluation
     /// added to the solver's; a modelled clock ([`crate::cloth::StepClock::Model`]) charges
     /// the same work as without the overlap (it models the work, not the threads). Measured
-    /// (demo `world` section, `evaluation_overlap`; the net stepped alone, 2 cores): the
-    /// evaluating step's spike over a plain step fell from 2.1× to 1.34× under a 1 px bound,
-    /// 1.36× to 1.23× at full detail, and little at 30% of the nodes, where copying the state
-    /// and choosing the operations (which cannot overlap the solver) are most of the
-    /// evaluation.
+    /// (`cargo run --release -p slod-demo -- world`, report `world.evaluation_overlap`: the
+    /// paper's net stepped alone on 2 cores, medians of interleaved intervals): the
+    /// evaluating step over a plain step 2.05× → 1.35× under a 1 px bound, 1.32× → 1.22× at
+    /// full detail, 1.44× → 1.38× at 30% of the nodes, where copying the state (before the
+    /// step) and choosing the operations (after it), which cannot overlap the solver, are
+    /// most of the evaluation; the solver itself runs about 10% slower beside the measurement
+    /// (the two cores share their caches' bandwidth).
     pub overlap_step: bool,
     /// Controller settings for [`ClothBudget::TargetStepMs`].
     pub controller: ControllerSettings,
