@@ -127,7 +127,8 @@ pub(crate) struct WorldSection {
     /// First frame within ±10% of the target from which ≥ 95% of frames are, with at least 60
     /// frames (or half the run) to come; null if none.
     pub(crate) settled_after_frames: Option<usize>,
-    /// Frames within ±10% from the settle frame on (over the run if never settled).
+    /// Frames within ±10% from the settle frame on; never settled, from the frame the target
+    /// was reached on (the cold start before it excluded); over the run if never reached.
     pub(crate) within_10pct_fraction: f64,
     /// Median frame time, ms.
     pub(crate) p50_ms: f64,

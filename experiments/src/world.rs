@@ -517,7 +517,10 @@ pub struct Settle {
     /// The first frame within ±10% of the target from which at least 95% of frames are within
     /// (with at least [`SETTLE_TAIL`] frames, or half the run, still to come); `None` if none.
     pub settled_after: Option<usize>,
-    /// Fraction of frames within ±10% from the settle frame on (over the whole run if never).
+    /// Fraction of frames within ±10% from the settle frame on; if it never settled, from the
+    /// frame it reached the target on (the issue's "reaches the target ... and then stays
+    /// within ±10%": the cold start before it is not the controller holding the band); over
+    /// the whole run if it never reached it either.
     pub within_fraction: f64,
     /// The first frame from which the median of the next [`REACH_WINDOW`] frames is within
     /// ±10% of the target: when a cold start has reached it, whatever single frames do after
@@ -550,7 +553,7 @@ pub fn settle(measured: &[f64], target: f64) -> Settle {
     });
     Settle {
         settled_after,
-        within_fraction: fraction(settled_after.unwrap_or(0)),
+        within_fraction: fraction(settled_after.or(reached_after).unwrap_or(0)),
         reached_after,
     }
 }

@@ -74,6 +74,13 @@ fn settle_finds_the_first_frame_that_holds() {
     let mut never = vec![2.0; 200];
     never[199] = 1.0;
     assert_eq!(settle(&never, 1.0).settled_after, None);
+    // Reached but never settled (every tenth frame out): the fraction counts from the frame it
+    // was reached, not the cold start before it.
+    let mut loose = vec![2.0; 50];
+    loose.extend((0..200).map(|f| if f % 10 == 9 { 1.5 } else { 1.0 }));
+    let s = settle(&loose, 1.0);
+    assert_eq!((s.settled_after, s.reached_after), (None, Some(46)));
+    assert!((s.within_fraction - 180.0 / 204.0).abs() < 1e-12, "{s:?}");
 }
 
 /// The controller targets on the real scene (quick scale), with the deterministic

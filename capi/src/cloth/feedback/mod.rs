@@ -270,8 +270,8 @@ impl Feedback {
 
     /// The first third of [`Feedback::measure`], the only one that reads the body's particles
     /// and links: copies of what the measurement reads (positions, velocities, the neighbour
-    /// table, the particles' nodes and masses; the strain term, which reads the links), the
-    /// object's motion, and the view. [`Feedback::compute`] then reads only these copies and
+    /// table, the particles' nodes, masses and cut membership, the links for the strain term),
+    /// the object's motion, and the view. [`Feedback::compute`] then reads only these copies and
     /// the hierarchy, so it can run while the body steps (see
     /// `FeedbackSettings::overlap_step`). Errors (a body whose state cannot be measured: no
     /// mass, a broken neighbour table) come from here, before anything changed.
@@ -324,7 +324,8 @@ impl Feedback {
 
     /// The second third of [`Feedback::measure`], most of its work: the on-screen deviation of
     /// the particles not measured ahead (under an error bound), or the normals, the BSWDF, the
-    /// strain term and the deviation. Reads only the copies [`Feedback::prepare`] made and the
+    /// strain term, the deviation and the priorities (the cut's membership does not change in
+    /// a step: only beginning an operation moves it). Reads only the copies [`Feedback::prepare`] made and the
     /// hierarchy (which never changes), so it may run while the body steps. Does nothing
     /// unless a measurement was prepared.
     pub(crate) fn compute(
@@ -471,11 +472,11 @@ impl Feedback {
         Ok(())
     }
 
-    /// The last third of [`Feedback::measure`]: the priority of every node of the cut as it is
-    /// now (the body may have stepped since [`Feedback::prepare`], ending transitions: a node
-    /// no longer simulated gives its estimate to its parent, and a parent just merged takes
-    /// its children's), and the node budget under an error bound. Returns the view the
-    /// measurement saw the cloth through; refused when no measurement was computed.
+    /// The last third of [`Feedback::measure`]: under an error bound, the priority of every
+    /// node of the cut and the node budget, read against the body as it is now (it may have
+    /// stepped since [`Feedback::prepare`], ending transitions and their locks: a parent just
+    /// merged takes its children's estimate); otherwise the normals handed back. Returns the
+    /// view the measurement saw the cloth through; refused when no measurement was computed.
     pub(crate) fn conclude(
         &mut self,
         body: &TreeCutSoftBody,
@@ -499,8 +500,6 @@ impl Feedback {
                 });
             }
         };
-        // The priorities were set by `compute` (the cut's membership does not change in a
-        // step: only beginning an operation moves it).
         for (i, &node) in self.nodes.iter().enumerate() {
             node_normals[node.index()] = self.normals[i];
         }
