@@ -119,6 +119,10 @@ void cloth_checks(slod::World &world) {
     bad.budget_kind = 7;
     EXPECT_ERROR(cloth.set_feedback(bad), SLOD_RESULT_INVALID_ARGUMENT);
     EXPECT(slod::last_error().find("budget_kind") != std::string::npos);
+    bad = fb;
+    bad.overlap_step = 2; // 0 or 1: an evaluation beside its step's solver
+    EXPECT_ERROR(cloth.set_feedback(bad), SLOD_RESULT_INVALID_ARGUMENT);
+    EXPECT(slod::last_error().find("overlap_step") != std::string::npos);
     cloth.set_feedback(fb);
 
     // Every other step's evaluation runs ahead of it (as a 120 Hz host would, between steps):
