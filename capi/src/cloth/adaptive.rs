@@ -405,7 +405,12 @@ impl AdaptiveCloth {
     /// `interval` steps (counting from the first, shifted by the evaluation phase) also measures salience as seen through `view`
     /// (the frame's camera, viewport and light; the cloth keeps no copy) and begins the
     /// operations the evaluator chose, unless [`AdaptiveCloth::evaluate_ahead`] ran that
-    /// stage since the last step. Operations whose blend is done end inside the step.
+    /// stage since the last step. Operations whose blend is done end inside the step. With
+    /// [`FeedbackSettings::overlap_step`] the measurement runs beside the solver (on copies of
+    /// the state before it) and the operations begin after the solver; an error of the
+    /// evaluation's later parts (after the measurement began) is then returned after the step
+    /// ran, its operations not begun (its earlier errors, as every error without the overlap,
+    /// leave the cloth unstepped).
     ///
     /// With a time budget the controller is given every step's time (by the [`StepClock`]), the
     /// evaluation's part of it, the nodes and the transitions in flight, and moves the node

@@ -198,8 +198,8 @@ pub struct FeedbackSettings {
     /// the same work as without the overlap (it models the work, not the threads). Measured
     /// (`cargo run --release -p slod-demo -- world`, report `world.evaluation_overlap`: the
     /// paper's net stepped alone on 2 cores, medians of interleaved intervals): the
-    /// evaluating step over a plain step 2.05× → 1.35× under a 1 px bound, 1.32× → 1.22× at
-    /// full detail, 1.44× → 1.38× at 30% of the nodes, where copying the state (before the
+    /// evaluating step over a plain step 2.05× → 1.31× under a 1 px bound, 1.37× → 1.17× at
+    /// full detail, 1.43× → 1.30× at 30% of the nodes, where copying the state (before the
     /// step) and choosing the operations (after it), which cannot overlap the solver, are
     /// most of the evaluation; the solver itself runs about 10% slower beside the measurement
     /// (the two cores share their caches' bandwidth).
