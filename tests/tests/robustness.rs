@@ -716,8 +716,9 @@ fn random_call(rng: &mut Rng, m: &mut Model, other: &Model, assets: &Assets, ste
             let mut null_desc = false;
             d.rim_weight = rng.range(0.0, 5.0);
             d.flicker_target = rng.range(0.0, 0.2);
+            d.overlap_step = rng.below(2) as u32;
             let bad = if arg_fault {
-                match rng.below(10) {
+                match rng.below(11) {
                     0 => {
                         // 0..=3 are SlodClothBudget values (3: MaxErrorPx).
                         d.budget_kind = 4 + rng.below(100) as u32;
@@ -755,6 +756,10 @@ fn random_call(rng: &mut Rng, m: &mut Model, other: &Model, assets: &Assets, ste
                     8 => {
                         d.flicker_target = 1.5;
                         "desc.flicker_target"
+                    }
+                    9 => {
+                        d.overlap_step = 2 + rng.below(100) as u32;
+                        "desc.overlap_step"
                     }
                     _ => {
                         null_desc = true;
