@@ -215,7 +215,6 @@ pub(crate) fn run(plan: &WorldPlan, progress: Progress) -> Result<WorldOutcome, 
     bar.finish_and_clear();
     let (warm, intervals) = plan.overlap;
     let net = NetConfig::paper().map_err(|e| DemoError::Internal(format!("overlap: {e}")))?;
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let evaluation_overlap: Vec<OverlapReport> = overlap::measure(&net, warm, intervals)
         .map_err(|e| DemoError::Internal(format!("overlap: {e}")))?
         .into_iter()
@@ -224,7 +223,7 @@ pub(crate) fn run(plan: &WorldPlan, progress: Progress) -> Result<WorldOutcome, 
             spike_overlapped: r.evaluating_step_ms_overlapped / r.plain_step_ms.max(1e-9),
             budget: r.budget,
             nodes: r.nodes,
-            threads,
+            threads: r.threads,
             plain_step_ms: r.plain_step_ms,
             evaluating_step_ms_sequential: r.evaluating_step_ms_sequential,
             evaluating_step_ms_overlapped: r.evaluating_step_ms_overlapped,

@@ -28,6 +28,8 @@ pub struct OverlapRow {
     pub evaluating_step_ms_sequential: f64,
     /// Median wall time of an evaluating step, evaluation overlapped with the solver, ms.
     pub evaluating_step_ms_overlapped: f64,
+    /// Threads of the rayon pool the overlapped measurement was spawned on.
+    pub threads: usize,
 }
 
 /// The paper's net under `budget`, warmed up for `warm` steps (into the swing, the cut
@@ -112,6 +114,7 @@ pub fn measure(
             plain_step_ms: median(&mut plain),
             evaluating_step_ms_sequential: median(sequential),
             evaluating_step_ms_overlapped: median(overlapped),
+            threads: rayon::current_num_threads(),
         });
     }
     Ok(rows)
