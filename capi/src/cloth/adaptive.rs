@@ -449,7 +449,7 @@ impl AdaptiveCloth {
             // The operations begin after the step (the sequential evaluation's begin before
             // it): recorded at this step, as theirs.
             let t = Instant::now();
-            late = measured.and_then(|()| self.conclude_overlapped());
+            late = measured.and_then(|()| self.conclude_and_plan());
             if let Some(e) = eval_seconds.as_mut() {
                 *e += self.overlap_seconds + t.elapsed().as_secs_f64();
             }
@@ -540,9 +540,9 @@ impl AdaptiveCloth {
         measured
     }
 
-    /// The last part of an evaluation overlapped with its step: the priorities of the cut as
-    /// the step left it, the evaluator, the operations begun.
-    fn conclude_overlapped(&mut self) -> Result<(), ClothError> {
+    /// The last part of an evaluation (after the step when overlapped with it): the priorities
+    /// of the cut as it is now, the evaluator, the operations begun.
+    fn conclude_and_plan(&mut self) -> Result<(), ClothError> {
         let Some(f) = self.feedback.as_mut() else {
             return Ok(());
         };
@@ -681,18 +681,11 @@ impl AdaptiveCloth {
                 reason: "not enabled",
             });
         };
-        let (now, last_op) = (self.stats.steps, &self.last_op);
-        let recent = |n: NodeId| recent_op(last_op, now, n);
         // A measurement begun ahead in parts is finished through the view it began with.
-        let seen = f.measure(
-            &self.body,
-            &mut self.node_normals,
-            &self.node_radius,
-            view,
-            self.body.settings().solver.dt,
-            &recent,
-        )?;
-        self.plan(&seen)
+        let dt = self.body.settings().solver.dt;
+        f.prepare(&self.body, &self.node_normals, &self.node_radius, view, dt)?;
+        f.compute(self.body.hierarchy(), &self.node_radius)?;
+        self.conclude_and_plan()
     }
 
     /// The evaluation after its measurement (made through `seen`): the contact priorities, the

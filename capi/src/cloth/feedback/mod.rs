@@ -1,7 +1,8 @@
 //! The feedback stage of the closed loop: per-particle BSWDF salience turned into a priority
 //! per cut node, and the budget the evaluator spends. By subject: [`settings`] (budget, priority
-//! model, parameters), the measurement here ([`Feedback::measure`]: BSWDF salience of every
-//! particle, then priorities per cut node), [`deformation`] (the strain feature), [`memory`]
+//! model, parameters), the measurement here (BSWDF salience of every particle, then priorities
+//! per cut node, in three parts: [`Feedback::prepare`], [`Feedback::compute`],
+//! [`Feedback::conclude`]), [`deformation`] (the strain feature), [`memory`]
 //! (salience memory) and [`radii`] (node sizes).
 //!
 //! Based on: the simulation-LOD paper (`simulation-lod-treecut-softbody-bswdf.txt`), sections 4–5 (the feedback stage).
@@ -32,7 +33,7 @@ pub use settings::{
     FeedbackSettings, PACED_MAX_OPS, PriorityModel, compression_nodes,
 };
 
-/// Whether a node's level changed within the undo window (see [`Feedback::measure`]).
+/// Whether a node's level changed within the undo window (see [`Feedback::conclude`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Recent {
     /// Not recently.
@@ -97,7 +98,7 @@ pub(crate) struct Feedback {
     /// Measurements made so far.
     measurements: u64,
     /// A measurement under [`ClothBudget::MaxErrorPx`] begun ahead of its step and carried out
-    /// in parts ([`Feedback::measure_part`]); the next [`Feedback::measure`] finishes it.
+    /// in parts ([`Feedback::measure_part`]); the next [`Feedback::compute`] finishes it.
     partial: Option<Partial>,
     /// Per hierarchy node: whether it is not a leaf and covers a rim vertex (computed at the
     /// first measurement; see [`FeedbackSettings::rim_weight`]).
@@ -111,7 +112,7 @@ pub(crate) struct Feedback {
     /// The body's links (for the strain term).
     links: Vec<softbody::LinkInfo>,
     blend_steps: u32,
-    /// A measurement between [`Feedback::compute`] and [`Feedback::conclude`].
+    /// A measurement under way, not yet concluded (see [`Pending`]).
     pending: Option<Pending>,
 }
 
@@ -240,36 +241,10 @@ impl Feedback {
         }
     }
 
-    /// Computes the BSWDF of every particle and from it the priority of every active node
-    /// (under [`ClothBudget::MaxErrorPx`] the on-screen deviation alone: no normals, BSWDF or
-    /// strain term, which that mode does not read).
-    ///
-    /// During a coarse in flight the cut holds the (virtual) parent while the particles are its
-    /// children: the parent gets its children's largest priority, the same key the evaluator
-    /// would use to merge them.
-    ///
-    /// `recent(node)` says whether `node` was refined or coarsened so recently that undoing it
-    /// would count as flicker. Under [`ClothBudget::MaxErrorPx`] such a node keeps its level
-    /// for the undo window (a minimum residency, as engines' LOD systems keep a level for a
-    /// minimum time) unless the error really asks: a just-refined node is not merged back, and
-    /// a just-coarsened one is refined again only above four times the bound (not half of it), so a
-    /// bound that moves does not undo what it just asked for.
-    pub(crate) fn measure(
-        &mut self,
-        body: &TreeCutSoftBody,
-        node_normals: &mut [Vec3],
-        node_radius: &[f32],
-        view: &View,
-        dt: f32,
-        recent: &dyn Fn(NodeId) -> Recent,
-    ) -> Result<View, ClothError> {
-        self.prepare(body, node_normals, node_radius, view, dt)?;
-        self.compute(body.hierarchy(), node_radius)?;
-        self.conclude(body, node_normals, node_radius, recent)
-    }
-
-    /// The first third of [`Feedback::measure`], the only one that reads the body's particles
-    /// and links: copies of what the measurement reads (positions, velocities, the neighbour
+    /// The first of a measurement's three parts (a measurement: the BSWDF of every particle and
+    /// from it the priority of every active node; under [`ClothBudget::MaxErrorPx`] the
+    /// on-screen deviation alone, no normals, BSWDF or strain term, which that mode does not
+    /// read), the only one that reads the body's particles and links: copies of what the measurement reads (positions, velocities, the neighbour
     /// table, the particles' nodes, masses and cut membership, the links for the strain term),
     /// the object's motion, and the view. [`Feedback::compute`] then reads only these copies and
     /// the hierarchy, so it can run while the body steps (see
@@ -315,17 +290,18 @@ impl Feedback {
             .extend(self.nodes.iter().map(|&node| cut.is_on_cut(node)));
         self.pending = Some(Pending::Salience {
             view: *view,
-            seen: *view,
             object,
             dt,
         });
         Ok(())
     }
 
-    /// The second third of [`Feedback::measure`], most of its work: the on-screen deviation of
+    /// The second part of a measurement, most of its work: the on-screen deviation of
     /// the particles not measured ahead (under an error bound), or the normals, the BSWDF, the
     /// strain term, the deviation and the priorities (the cut's membership does not change in
-    /// a step: only beginning an operation moves it). Reads only the copies [`Feedback::prepare`] made and the
+    /// a step: only beginning an operation moves it). During a coarse in flight the cut holds
+    /// the (virtual) parent while the particles are its children: the parent gets its
+    /// children's largest priority, the same key the evaluator would use to merge them. Reads only the copies [`Feedback::prepare`] made and the
     /// hierarchy (which never changes), so it may run while the body steps. Does nothing
     /// unless a measurement was prepared.
     pub(crate) fn compute(
@@ -341,20 +317,14 @@ impl Feedback {
             self.pending = Some(Pending::Bound(partial, bound));
             return Ok(());
         }
-        let Some(Pending::Salience {
-            view,
-            seen,
-            object,
-            dt,
-        }) = self.pending
-        else {
+        let Some(Pending::Salience { view, object, dt }) = self.pending else {
             return Ok(());
         };
         let nbrs = Neighbours::new(&self.offsets, &self.neighbours, n)?;
         self.normals.resize(n, Vec3::ZERO);
         salience::estimate_normals(&self.positions, &nbrs, &self.hints, &mut self.normals)?;
         let seen = if self.settings.view_dependent {
-            seen
+            view
         } else {
             canonical_view(&self.positions, &self.normals, object.centre, &view)
         };
@@ -463,20 +433,21 @@ impl Feedback {
             *slot = slot.max(value(parent));
         }
         self.nodes = nodes;
-        self.pending = Some(Pending::Salience {
-            view,
-            seen,
-            object,
-            dt,
-        });
         Ok(())
     }
 
-    /// The last third of [`Feedback::measure`]: under an error bound, the priority of every
-    /// node of the cut and the node budget, read against the body as it is now (it may have
-    /// stepped since [`Feedback::prepare`], ending transitions and their locks: a parent just
-    /// merged takes its children's estimate); otherwise the normals handed back. Returns the
-    /// view the measurement saw the cloth through; refused when no measurement was computed.
+    /// The last part of a measurement: under an error bound, the priority of every node of the
+    /// cut and the node budget, read against the body as it is now (it may have stepped since
+    /// [`Feedback::prepare`], ending transitions and their locks: a parent just merged takes its
+    /// children's estimate); otherwise the normals handed back. Returns the view the
+    /// measurement saw the cloth through; refused when no measurement was computed.
+    ///
+    /// `recent(node)` says whether `node` was refined or coarsened so recently that undoing it
+    /// would count as flicker. Under [`ClothBudget::MaxErrorPx`] such a node keeps its level
+    /// for the undo window (a minimum residency, as engines' LOD systems keep a level for a
+    /// minimum time) unless the error really asks: a just-refined node is not merged back, and
+    /// a just-coarsened one is refined again only above four times the bound (not half of it),
+    /// so a bound that moves does not undo what it just asked for.
     pub(crate) fn conclude(
         &mut self,
         body: &TreeCutSoftBody,
@@ -592,7 +563,7 @@ impl Feedback {
 
     /// Measures the particles of a measurement under [`ClothBudget::MaxErrorPx`] up to
     /// `fraction` of them (begun now if none is under way, seeing the cloth through `view`),
-    /// ahead of the step that finishes it ([`Feedback::measure`]): the cloth does not move
+    /// ahead of the step that finishes it ([`Feedback::compute`]): the cloth does not move
     /// between its steps, so the parts measure one state, all through the first part's view,
     /// and the result is the one measurement made at the first part. Returns the particles
     /// measured by this call (0 under another budget: its measurement is not split).
@@ -796,16 +767,16 @@ impl Feedback {
     }
 }
 
-/// A measurement computed ([`Feedback::compute`]) and not yet concluded.
+/// A measurement under way, not yet concluded ([`Feedback::conclude`]): from
+/// [`Feedback::prepare`] under a budget that ranks nodes, from [`Feedback::compute`] under an
+/// error bound (until then its [`Partial`] carries it).
 #[derive(Clone, Copy, Debug)]
 enum Pending {
     /// Under [`ClothBudget::MaxErrorPx`] at this bound.
     Bound(Partial, f32),
-    /// Under another budget: the frame's view, the one the BSWDF saw (the canonical one for a
-    /// loop that is not view-dependent), the object's motion and the solver step.
+    /// Under another budget: the frame's view, the object's motion and the solver step.
     Salience {
         view: View,
-        seen: View,
         object: ObjectMotion,
         dt: f32,
     },
