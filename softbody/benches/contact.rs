@@ -5,10 +5,15 @@
 //! * `draped`: the cloth lying over a sphere and a ground plane (every node in contact).
 //! * `draped+8 far`: the same plus eight capsules away from the cloth (the broad phase's cost).
 //! * `cape10`: the cloth hanging against ten capsules and spheres (a body), most nodes touching.
+//! * `windy`: the free cloth in gusty wind (normals, gusts and the wind force every step; the
+//!   same colliders as `free`, none).
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{Quat, Vec3};
 use softbody::treecut::{Cut, GridSpec, Hierarchy};
-use softbody::{ColliderDesc, Shape, Transform, TreeCutSettings, TreeCutSoftBody};
+use softbody::{
+    ColliderDesc, Shape, Transform, TreeCutSettings, TreeCutSoftBody, Wind, WindField,
+    grid_triangles,
+};
 use std::hint::black_box;
 
 fn cloth(spec: &GridSpec) -> TreeCutSoftBody {
@@ -40,8 +45,19 @@ fn bench(c: &mut Criterion) {
     free.pin_vertex(0, flat.position(0, 0)).unwrap();
     free.pin_vertex(64, flat.position(64, 0)).unwrap();
     settle(&mut free, 60);
+    let mut windy = free.clone();
     c.bench_function("free (4225 nodes, no colliders)", |b| {
         b.iter(|| black_box(&mut free).step());
+    });
+    windy.set_surface(&grid_triangles(65, 65)).unwrap();
+    let wind = WindField {
+        velocity: Vec3::new(1.0, 0.0, 6.0),
+        ..WindField::default()
+    };
+    windy.set_wind(Some(Wind::new(wind).unwrap())).unwrap();
+    settle(&mut windy, 30);
+    c.bench_function("windy (4225 nodes, gusty wind)", |b| {
+        b.iter(|| black_box(&mut windy).step());
     });
 
     let mut draped = cloth(&flat);

@@ -90,6 +90,8 @@ pub struct Wind {
     field: WindField,
     waves: [Wave; WAVES],
     across: Vec3,
+    /// `|field.velocity|`, computed once: every particle's gust scales with it.
+    speed: f32,
 }
 
 /// Why a wind field was refused.
@@ -138,6 +140,7 @@ impl Wind {
             field,
             waves,
             across,
+            speed: field.velocity.length(),
         })
     }
 
@@ -149,7 +152,7 @@ impl Wind {
     /// Air velocity at `x` at time `t` seconds: the mean plus gusts along it and across it, each
     /// a sum of travelling sines whose RMS is `gust × mean speed`.
     pub fn velocity_at(&self, x: Vec3, t: f32) -> Vec3 {
-        let speed = self.field.velocity.length();
+        let speed = self.speed;
         if self.field.gust == 0.0 || speed == 0.0 {
             return self.field.velocity;
         }

@@ -263,3 +263,52 @@ fn reconstructed_surface_stays_outside_colliders() {
         assert!(gap(&out) < 0.0, "{mode:?}: the chord ({})", gap(&out));
     }
 }
+
+/// The normals' weights table, brought up to date where the topology changed, gives the bits a
+/// direct pass gives, through refines and coarses begun and ended (particles added, removed
+/// and moved into freed slots), a renumbering, and steps of a windy, falling cloth.
+#[test]
+fn normals_from_the_table_match_a_direct_pass() {
+    let mut body = bent_cloth(17, 80);
+    body.set_auto_renumber(false);
+    let mut rng: u64 = 0x5EED;
+    let mut next = |n: usize| {
+        rng = rng
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        ((rng >> 33) as usize) % n
+    };
+    let (mut refines, mut coarses) = (0, 0);
+    for round in 0..60 {
+        let active = body.cut().active().to_vec();
+        for _ in 0..3 {
+            let node = active[next(active.len())];
+            if next(2) == 0 {
+                refines += usize::from(body.begin_refine(node).is_ok());
+            } else if let Some(parent) = body.hierarchy().parent(node) {
+                coarses += usize::from(body.begin_coarse(parent).is_ok());
+            }
+        }
+        if round == 30 {
+            assert!(
+                body.renumber_particles(),
+                "the operations scattered the particles"
+            );
+        }
+        body.step();
+        let direct = body.normals_direct();
+        let table = body.normals_now();
+        assert_eq!(table.len(), body.particle_count());
+        for (p, (a, b)) in table.iter().zip(&direct).enumerate() {
+            assert_eq!(
+                a.to_array().map(f32::to_bits),
+                b.to_array().map(f32::to_bits),
+                "round {round}, particle {p}"
+            );
+        }
+    }
+    assert!(
+        refines > 20 && coarses > 20,
+        "{refines} refines, {coarses} coarses"
+    );
+}
