@@ -988,26 +988,21 @@ impl FrameBudgeter {
                 let t = slot(p).1 as i64;
                 (0..spread).map(move |l| (t - l as i64).rem_euclid(cycle as i64) as u64)
             };
-            let fullest = |p: u64| {
-                frames(p)
-                    .map(|t| load.get(&(cycle, t)).copied().unwrap_or(0.0))
-                    .fold(0.0, f64::max)
-            };
-            let total = |p: u64| {
-                frames(p)
-                    .map(|t| load.get(&(cycle, t)).copied().unwrap_or(0.0))
-                    .sum::<f64>()
+            // A phase's score: the cost its frames carry in all, then at the fullest.
+            let score = |p: u64| {
+                let loads = frames(p).map(|t| load.get(&(cycle, t)).copied().unwrap_or(0.0));
+                loads.fold((0.0, 0.0), |(sum, max): (f64, f64), l| {
+                    (sum + l, max.max(l))
+                })
             };
             let phase = (0..interval)
-                .min_by(|&a, &b| {
-                    total(a)
-                        .total_cmp(&total(b))
-                        .then(fullest(a).total_cmp(&fullest(b)))
-                        .then(a.cmp(&b))
+                .map(|p| (score(p), p))
+                .min_by(|((ta, fa), a), ((tb, fb), b)| {
+                    ta.total_cmp(tb).then(fa.total_cmp(fb)).then(a.cmp(b))
                 })
-                .unwrap_or(0);
+                .map_or(0, |(_, p)| p);
             let part = evaluation(job) / spread as f64;
-            for t in frames(phase).collect::<Vec<_>>() {
+            for t in frames(phase) {
                 *load.entry((cycle, t)).or_default() += part;
             }
             let phase = phase as u32;
