@@ -16,7 +16,7 @@ use crate::perception::{self, PerceptionOutcome, PerceptionPlan};
 use crate::progress::Progress;
 use crate::report::{self, Report, SCHEMA, Seconds};
 use crate::world::{self, WorldOutcome, WorldPlan};
-use crate::{plots, render};
+use crate::{plots, render, targets};
 use slod_experiments::table::{Table, num, opt, pct};
 
 /// Runs the demo for `args` (without the program name), printing tables to `out` and errors
@@ -198,6 +198,11 @@ fn run(
         .chain(std::iter::once("report.json".to_string()))
         .collect();
     seconds.total = start.elapsed().as_secs_f64();
+    let checks = targets::check(
+        net_outcome.as_ref().map(|o| &o.section),
+        perception_outcome.as_ref().map(|o| &o.section),
+        world_outcome.as_ref().map(|o| &o.section),
+    );
     let report = Report {
         schema: SCHEMA,
         command: options.section.name(),
@@ -209,10 +214,14 @@ fn run(
         engine: engine_outcome.as_ref().map(|o| &o.section),
         perception: perception_outcome.as_ref().map(|o| &o.section),
         world: world_outcome.as_ref().map(|o| &o.section),
+        targets: &checks,
         files: names.clone(),
         seconds: seconds.clone(),
     };
     report::write(&report_path, &report)?;
+    if !checks.is_empty() {
+        say(out, &targets::render(&checks));
+    }
     say(
         out,
         &summary(&report, dir, &names, start.elapsed().as_secs_f64()),

@@ -25,6 +25,7 @@ mod plots;
 mod progress;
 mod render;
 mod report;
+mod targets;
 mod world;
 
 pub use app::run_cli;

@@ -12,6 +12,7 @@ use crate::error::DemoError;
 use crate::machine::Machine;
 use crate::net::NetSection;
 use crate::perception::PerceptionSection;
+use crate::targets::TargetCheck;
 use crate::world::WorldSection;
 
 /// Version of the report's layout; bumped when a field changes meaning or disappears.
@@ -59,6 +60,9 @@ pub(crate) struct Report<'a> {
     pub(crate) perception: Option<&'a PerceptionSection>,
     /// One frame budget for the whole world (null when not run).
     pub(crate) world: Option<&'a WorldSection>,
+    /// The open issues' targets checked against this run's figures (only those the sections
+    /// that ran speak to; `met` null where a bench measures the target instead).
+    pub(crate) targets: &'a [TargetCheck],
     /// Files written next to the report (names relative to the output directory).
     pub(crate) files: Vec<String>,
     /// Wall times.

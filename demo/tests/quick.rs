@@ -565,6 +565,51 @@ fn check_world(w: &Value) {
     assert!(f(w, "screen_rms_px") >= 0.0);
 }
 
+/// The targets table: one entry per target of the three open issues, each judged only where
+/// this run measures it. A quick run's cloth is smaller than the Bullet peer's, so that ratio
+/// is not judged; the criteria themselves are checked on the figures the report carries.
+fn check_targets(r: &Value, out: &str) {
+    assert!(out.contains("Targets of the open issues"), "{out}");
+    let targets = r["targets"].as_array().expect("targets[]");
+    for issue in [12, 15, 16] {
+        assert!(
+            targets.iter().any(|t| t["issue"] == issue),
+            "no target of issue {issue}"
+        );
+    }
+    for t in targets {
+        has(t, &["issue", "target", "measured", "met"]);
+        assert!(t["met"].is_boolean() || t["met"].is_null(), "{t}");
+        assert!(!t["measured"].as_str().unwrap().is_empty(), "{t}");
+    }
+    let row = |prefix: &str| {
+        targets
+            .iter()
+            .find(|t| t["target"].as_str().unwrap().starts_with(prefix))
+            .unwrap_or_else(|| panic!("no target `{prefix}`"))
+    };
+    let bullet = row("Bullet topology 65");
+    let ours = r["net"]["table2"]["bullet_like"]["size"].as_u64().unwrap();
+    if r["net"]["table2"]["peer_bullet"]["size"].as_u64() != Some(ours)
+        || r["net"]["table2"]["peer_bullet"]["ms_per_step"].is_null()
+    {
+        assert!(bullet["met"].is_null(), "{bullet}");
+    }
+    // The world's undone target agrees with the world's own figure.
+    let undone = f(&r["world"], "undone_fraction");
+    assert_eq!(
+        row("world: < 1% of operations undone")["met"],
+        Value::Bool(undone < 0.01)
+    );
+    // Table 1's target is met exactly when every median is under a microsecond.
+    let all_fast = r["net"]["table1"]["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|o| f(o, "median_us") < 1.0);
+    assert_eq!(row("Table 1")["met"], Value::Bool(all_fast));
+}
+
 #[test]
 fn quick_run_writes_a_complete_report_and_real_pictures() {
     let dir = TempDir::new("all");
@@ -629,6 +674,7 @@ fn quick_run_writes_a_complete_report_and_real_pictures() {
     check_crowd(&r["crowd"]);
     check_perception(&r["perception"]);
     check_world(&r["world"]);
+    check_targets(&r, &out);
 
     let files: Vec<&str> = r["files"]
         .as_array()

@@ -19,7 +19,7 @@ use slod_experiments::table::{Table, num, pct};
 use crate::error::DemoError;
 use crate::progress::Progress;
 
-pub(crate) use records::{PerceptionSection, SceneRecord};
+pub(crate) use records::{PerceptionSection, RunRecord, SceneRecord};
 
 /// The scene recorded as a moving picture: the camera dollies in and orbits, so the cut must
 /// follow the view.
