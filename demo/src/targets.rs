@@ -94,6 +94,8 @@ fn tally<'a>(
     (met, all, worst.map(|(n, _, t)| (n, t)))
 }
 
+/// A target over scenes: met when every scene checked meets it (null when none was), with the
+/// worst scene's figure.
 fn scenes_row(
     out: &mut Vec<TargetCheck>,
     issue: u32,
@@ -148,7 +150,7 @@ fn perception_targets(p: &PerceptionSection, out: &mut Vec<TargetCheck>) {
     scenes_row(
         out,
         12,
-        "... and never more than the uniform cut elsewhere",
+        "at equal on-screen p99, feedback costs no more than the cheapest uniform cut on the other scenes",
         tally(ratio(false, 1.0)),
     );
     // The paper's net at 30% of the nodes.
