@@ -61,7 +61,7 @@ pub(crate) struct Report<'a> {
     /// One frame budget for the whole world (null when not run).
     pub(crate) world: Option<&'a WorldSection>,
     /// The open issues' targets checked against this run's figures (only those the sections
-    /// that ran speak to; `met` null where a bench measures the target instead).
+    /// that ran speak to; `met` null where this run does not measure the target).
     pub(crate) targets: &'a [TargetCheck],
     /// Files written next to the report (names relative to the output directory).
     pub(crate) files: Vec<String>,

@@ -119,10 +119,12 @@ fn check_net(net: &Value) {
             "table2",
             "figure4",
             "figure5",
+            "solver",
             "experiment_seconds",
             "seconds",
         ],
     );
+    check_solver(&net["solver"]);
     let c = &net["config"];
     has(
         c,
@@ -563,6 +565,46 @@ fn check_world(w: &Value) {
     }
     assert!(f(w, "p99_ms") >= f(w, "p50_ms") && f(w, "p50_ms") > 0.0);
     assert!(f(w, "screen_rms_px") >= 0.0);
+}
+
+/// Issue 16's solver figures: positive times, per-link figures consistent with the times, and
+/// ratios that are the quotients they claim to be.
+fn check_solver(s: &Value) {
+    has(
+        s,
+        &[
+            "bullet",
+            "paper_net",
+            "threaded",
+            "after_operations",
+            "seconds",
+        ],
+    );
+    let bullet = s["bullet"].as_array().expect("bullet[]");
+    assert!(!bullet.is_empty());
+    for b in bullet {
+        let (ms, links) = (f(b, "ms_per_step"), f(b, "links"));
+        assert!(ms > 0.0 && links > 0.0, "{b}");
+        let ns = ms * 1e6 / (links * 20.0);
+        assert!(
+            (f(b, "ns_per_link_iteration") - ns).abs() <= 1e-9 * ns.max(1.0),
+            "{b}"
+        );
+        if let Some(bullet_ms) = b["bullet_ms_per_step"].as_f64() {
+            assert!((f(b, "bullet_ratio") - bullet_ms / ms).abs() < 1e-9 * bullet_ms / ms);
+        } else {
+            assert!(b["bullet_ratio"].is_null(), "{b}");
+        }
+    }
+    assert!(f(&s["paper_net"], "ms_per_step") > 0.0);
+    assert_eq!(f(&s["paper_net"], "nodes"), 79.0 * 54.0);
+    let t = &s["threaded"];
+    let speedup = f(t, "ms_one_thread") / f(t, "ms_threaded");
+    assert!((f(t, "speedup") - speedup).abs() < 1e-9 * speedup, "{t}");
+    let a = &s["after_operations"];
+    assert!(f(a, "operations") > 0.0, "{a}");
+    let ratio = f(a, "after_ns_per_link_iteration") / f(a, "built_ns_per_link_iteration");
+    assert!((f(a, "ratio") - ratio).abs() < 1e-9 * ratio, "{a}");
 }
 
 /// The targets table: one entry per target of the three open issues, each judged only where

@@ -8,6 +8,7 @@ mod figure4;
 mod ops;
 mod records;
 mod scaling;
+mod solver;
 mod tables;
 
 use std::time::Instant;
@@ -24,6 +25,7 @@ pub(crate) use records::NetSection;
 use records::{config_report, run_report};
 use scaling::Figure5Plan;
 pub(crate) use scaling::{BulletLike, Figure5};
+pub(crate) use solver::SolverSpeed;
 use tables::{render_errors, render_table2, table2};
 
 /// What to measure, from the options and the mode.
@@ -46,6 +48,11 @@ pub(crate) struct NetPlan {
     figure5: Figure5Plan,
     /// Side of the Bullet-like cloth.
     bullet_size: u32,
+    /// Sides of the Bullet-topology cloths of the solver figures (the largest also threaded),
+    /// the side of the net reached by operations, and timed steps per figure.
+    solver_sizes: Vec<u32>,
+    churn_side: u32,
+    solver_steps: u32,
 }
 
 impl NetPlan {
@@ -101,6 +108,9 @@ impl NetPlan {
                 feedback_steps: if quick { 10 } else { 120 },
             },
             bullet_size: if quick { 17 } else { crate::peer::BULLET_SIZE },
+            solver_sizes: if quick { vec![17] } else { vec![65, 129] },
+            churn_side: if quick { 17 } else { 65 },
+            solver_steps: if quick { 4 } else { 40 },
             config,
         })
     }
@@ -156,6 +166,7 @@ pub(crate) fn run(plan: &NetPlan, progress: Progress) -> Result<NetOutcome, Demo
     )?;
     let figure5 = scaling::measure(&plan.config, &plan.figure5, progress)?;
     let bullet_like = scaling::bullet_like(plan.bullet_size, plan.figure5.steps)?;
+    let solver = solver::measure(&plan.solver_sizes, plan.churn_side, plan.solver_steps)?;
 
     let mut config = plan.config.clone();
     let (target, target_source) = match plan.target_ms {
@@ -203,6 +214,7 @@ pub(crate) fn run(plan: &NetPlan, progress: Progress) -> Result<NetOutcome, Demo
         table1,
         figure4,
         figure5,
+        solver,
         experiment_seconds: experiment_start.elapsed().as_secs_f64(),
         seconds: start.elapsed().as_secs_f64(),
     };
@@ -211,6 +223,7 @@ pub(crate) fn run(plan: &NetPlan, progress: Progress) -> Result<NetOutcome, Demo
         section.figure4.render(),
         section.figure5.render(),
         render_table2(&section),
+        section.solver.render(),
         render_errors(&section),
     ]
     .join("\n");

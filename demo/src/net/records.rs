@@ -180,6 +180,8 @@ pub(crate) struct NetSection {
     pub(crate) figure4: Figure4,
     /// Figure 5.
     pub(crate) figure5: Figure5,
+    /// Issue 16's solver figures (the benches' targets, measured again in this run).
+    pub(crate) solver: super::SolverSpeed,
     /// Wall time of the experiment's runs (s).
     pub(crate) experiment_seconds: f64,
     /// Wall time of the whole section (s).

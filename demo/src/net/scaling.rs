@@ -12,11 +12,10 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use glam::Vec3;
 use serde::Serialize;
 use slod::cloth::{AdaptiveCloth, ClothBudget, FeedbackSettings};
 use slod_experiments::net::NetConfig;
-use softbody::{GridCloth, SoftBody, SolverSettings, TreeCutSoftBody};
+use softbody::{GridCloth, SoftBody, TreeCutSoftBody};
 use treecut::{Cut, Hierarchy};
 
 use crate::error::DemoError;
@@ -322,19 +321,9 @@ fn pinned(mut body: SoftBody, grid: &GridCloth) -> Result<SoftBody, DemoError> {
 /// Times our Bullet-like cloth (triangle edges + bend links, 20 iterations, dt 1/60, corners
 /// pinned, sagged 30 steps first): the configuration of the documented Bullet measurement.
 pub(crate) fn bullet_like(size: u32, steps: u32) -> Result<BulletLike, DemoError> {
-    let spacing = 1.0 / (size - 1) as f32;
-    let grid = GridCloth::square(size, spacing, 1.0 / (size * size) as f32);
-    let settings = SolverSettings {
-        dt: 1.0 / 60.0,
-        substeps: 1,
-        iterations: 20,
-        gravity: Vec3::new(0.0, -9.81, 0.0),
-        damping: 0.0,
-        // One thread, like the single-threaded Bullet solver it is compared with.
-        parallel_min_links: 0,
-    };
-    let mut body = pinned(grid.build_bullet(settings)?, &grid)?;
-    let ms = median_step_ms(&mut || body.step(), 30, steps);
+    let settings = super::solver::bullet_settings();
+    let mut body = super::solver::bullet_body(size, settings)?;
+    let ms = median_step_ms(&mut || body.step(), 5, steps);
     Ok(BulletLike {
         size,
         nodes: body.particle_count(),
