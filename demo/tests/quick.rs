@@ -601,6 +601,7 @@ fn check_solver(s: &Value) {
     let t = &s["threaded"];
     let speedup = f(t, "ms_one_thread") / f(t, "ms_threaded");
     assert!((f(t, "speedup") - speedup).abs() < 1e-9 * speedup, "{t}");
+    assert!(f(t, "independent_speedup") > 0.0, "{t}");
     let a = &s["after_operations"];
     assert!(f(a, "operations") > 0.0, "{a}");
     let ratio = f(a, "after_ns_per_link_iteration") / f(a, "built_ns_per_link_iteration");
