@@ -23,6 +23,7 @@ use animlod::{
     BuildError, ClipId, Crowd, CrowdError, ErrorSum, LodMode, PriorityWeights, Rig, SchedulerParams,
 };
 
+use crate::median;
 use crate::rig::grown_to;
 use crate::rng::Rng;
 
@@ -287,14 +288,6 @@ pub fn build_crowds(rig: &Arc<Rig>, cfg: &CrowdExperiment) -> Result<(Crowd, Cro
         }
     }
     Ok((full, lod))
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 /// A LOD mode that only culls: Ω = 1 for every character whose bounding sphere is in view

@@ -13,6 +13,7 @@ use std::time::Instant;
 
 use slod::cloth::{AdaptiveCloth, ClothBudget, ClothError, FeedbackSettings};
 
+use crate::median;
 use crate::net::NetConfig;
 
 /// One budget's measurement.
@@ -53,15 +54,6 @@ fn net(
         ..config.feedback
     }))?;
     Ok(c)
-}
-
-/// Median of `v` (0 for none).
-fn median(v: &mut [f64]) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 /// Measures the net at 30%, at 100% and under a 1 px error bound: `warm` steps, then

@@ -18,6 +18,7 @@ use slod_experiments::net::NetConfig;
 use softbody::{GridCloth, SoftBody, TreeCutSoftBody};
 use treecut::{Cut, Hierarchy};
 
+use super::solver::median_step_ms;
 use crate::error::DemoError;
 use crate::progress::Progress;
 use slod_experiments::table::{Table, num};
@@ -108,21 +109,6 @@ impl Figure5 {
             .iter()
             .find(|p| p.body == "plain" && p.size == size)
     }
-}
-
-fn median_step_ms(step: &mut dyn FnMut(), warmup: u32, steps: u32) -> f64 {
-    for _ in 0..warmup {
-        step();
-    }
-    let mut t: Vec<f64> = (0..steps.max(1))
-        .map(|_| {
-            let s = Instant::now();
-            step();
-            s.elapsed().as_secs_f64() * 1e3
-        })
-        .collect();
-    t.sort_by(f64::total_cmp);
-    t[t.len() / 2]
 }
 
 fn corners(size: u32) -> [(u32, u32); 4] {

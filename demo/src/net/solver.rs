@@ -19,6 +19,7 @@ use softbody::{GridCloth, SoftBody, SolverSettings, TreeCutSettings, TreeCutSoft
 
 use slod_experiments::table::{Table, num};
 
+use super::ops::median;
 use crate::error::DemoError;
 use crate::peer;
 
@@ -130,13 +131,12 @@ fn medians(bodies: &mut [&mut dyn FnMut()], warmup: u32, steps: u32) -> Vec<f64>
             times[k].push(t.elapsed().as_secs_f64() * 1e3);
         }
     }
-    times
-        .into_iter()
-        .map(|mut t| {
-            t.sort_by(f64::total_cmp);
-            t[t.len() / 2]
-        })
-        .collect()
+    times.iter_mut().map(|t| median(t)).collect()
+}
+
+/// The median of `steps` wall-clock steps (ms) after `warmup` steps: [`medians`] of one body.
+pub(super) fn median_step_ms(step: &mut dyn FnMut(), warmup: u32, steps: u32) -> f64 {
+    medians(&mut [step], warmup, steps)[0]
 }
 
 /// A Bullet-topology cloth of `size`² vertices (triangle edges + distance-2 bend links, as
@@ -171,7 +171,7 @@ pub(crate) fn measure(
     let mut bullet = Vec::new();
     for &size in sizes {
         let mut body = bullet_body(size, settings)?;
-        let ms = medians(&mut [&mut || body.step()], 5, steps)[0];
+        let ms = median_step_ms(&mut || body.step(), 5, steps);
         let peer = peer::bullet(&peer::results_path(), size, cpu.as_deref());
         bullet.push(BulletPoint {
             size,
@@ -191,7 +191,7 @@ pub(crate) fn measure(
     for p in grid.corners() {
         net.set_pinned(p, true)?;
     }
-    let ms = medians(&mut [&mut || net.step()], 30, steps)[0];
+    let ms = median_step_ms(&mut || net.step(), 30, steps);
     let paper_net = StepPoint {
         nodes: net.particle_count(),
         links: net.link_count(),
