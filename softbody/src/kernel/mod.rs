@@ -66,6 +66,28 @@
 //! 65² net (`SoftBody::step`, old and new binaries interleaved in one run: 1.06–1.14 ms →
 //! 0.98–1.07 ms, together with the fused velocity update and prediction of `SoftBody::step`).
 //!
+//! # What bounds the AVX2 path (measured)
+//! On the Bullet-topology 65² cloth (20 iterations, one thread; a 2-vCPU Zen 4 VM, about 3.3
+//! GHz) the step runs at about 1.9 ns, some 6 cycles, per link-iteration, 98% of it in the block
+//! kernel; a block of 16 links is about 380 instructions. Timer sampling piles a quarter of the
+//! samples on the instructions just after `vsqrtps` and `vdivps`: retirement waits on the
+//! square root → division chain of each half-block, and the reorder window holds about one
+//! block, so two chains (the two halves, gathered before either is solved) overlap and no more.
+//! Variants tried, each beside the kernel above in one run of interleaved binaries (medians of
+//! 5–8, ms per step): the halves solved one after the other, 1.97 against 1.40 (one chain);
+//! the next block's gathers issued before this block's scatters, 1.37–1.51 against 1.38–1.60
+//! (no gain: the register file spills what the window would have overlapped); solving in the
+//! particle layout (transposing only `|d|²` and `w_a + w_b`, broadcasting `s` back: a quarter
+//! fewer shuffles), 1.70 (spills again); byte offsets stored instead of indices (no shift per
+//! access), 1–2% (not kept); the same kernel compiled with AVX-512VL's 32 registers, 2.8 ns;
+//! AVX-512 in the particle layout, 2.5 against 2.4 ns. As measurements only (wrong results):
+//! without the transposes 10% faster, without the division 3%. Blocks whose links join
+//! consecutive particles, loaded and stored as pairs with no index, insert or extract (a
+//! synthetic two-row layout, 32,768 links, the same bits): 1.72–1.77 against 1.92–1.98 ns, a
+//! tenth. The transposes and the square root → division chain stay; what would reach the ~1 ns
+//! of a plain sweep over a regular grid is particles in a structure-of-arrays layout, so that
+//! such blocks need no transpose either — a change of the body's storage, not of this kernel.
+//!
 //! # Determinism across paths
 //! Every path performs the same IEEE-754 single-precision operations in the same order on every
 //! lane: no fused multiply-add (it would round once instead of twice), no reciprocal estimates,
