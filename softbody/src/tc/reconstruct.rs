@@ -34,6 +34,18 @@
 //! `Mls` costs a quarter to a fifth per frame on a kept cut (net at 30%, uniform: 0.16 → 0.03
 //! ms; 129² close-up: 0.75 → 0.18 ms), so it is the default.
 //!
+//! # No geomorph
+//! A change of representation (a refine begun, a coarse ended) moves the reconstructed
+//! vertices it touches, and level-of-detail systems commonly hide such jumps by fading the
+//! difference in over a few frames (Hoppe's geomorphs). Tried here: both sides of every change
+//! reconstructed at the same state, the difference faded out over 4 or 8 steps. On the
+//! perception scenes at 30% of the nodes (feedback loop) the pops at operations stayed or grew
+//! (net 2.33 → 2.70 / 3.03 px, off-screen 8.0 → 11.9 / 13.4, close-up 8.6 → 7.5 / 7.3, dolly
+//! 2.92 → 1.82 / 1.85) at the same RMS: the jump of the surface itself is small beside the
+//! motion of the region whose resolution changed, which is what the pop measure sees there (as
+//! its drift elsewhere: 4.4, 9.4, 10.3, 3.0 px). Not kept: it would cost a reconstruction per
+//! change and hide nothing a viewer sees.
+//!
 //! # Colliders
 //! A coarse node keeps its particle out of a collider, but vertices placed between particles
 //! held outside a curved collider cut the chord through it (the engine demo's cape worn by a
