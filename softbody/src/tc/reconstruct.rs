@@ -39,12 +39,12 @@
 //! vertices it touches, and level-of-detail systems commonly hide such jumps by fading the
 //! difference in over a few frames (Hoppe's geomorphs). Tried here: both sides of every change
 //! reconstructed at the same state, the difference faded out over 4 or 8 steps. On the
-//! perception scenes at 30% of the nodes (feedback loop) the pops at operations stayed or grew
+//! perception scenes at 30% of the nodes (feedback loop) the pops at operations moved both ways
 //! (net 2.33 → 2.70 / 3.03 px, off-screen 8.0 → 11.9 / 13.4, close-up 8.6 → 7.5 / 7.3, dolly
-//! 2.92 → 1.82 / 1.85) at the same RMS: the jump of the surface itself is small beside the
-//! motion of the region whose resolution changed, which is what the pop measure sees there (as
-//! its drift elsewhere: 4.4, 9.4, 10.3, 3.0 px). Not kept: it would cost a reconstruction per
-//! change and hide nothing a viewer sees.
+//! 2.92 → 1.82 / 1.85) at the same RMS, and stayed at the size of the drift pops elsewhere
+//! (4.4, 9.4, 10.3, 3.0 px): the jump of the surface itself is small beside the motion of the
+//! region whose resolution changed, which is what the pop measure sees there. Not kept: a
+//! reconstruction per change for no consistent gain.
 //!
 //! # Colliders
 //! A coarse node keeps its particle out of a collider, but vertices placed between particles
