@@ -34,8 +34,9 @@ pub mod table;
 pub mod world;
 
 /// Median of `v` (sorted in place; the upper of the two middle values for an even count); 0
-/// when empty. The experiments' timing figures are medians of repeated runs.
-pub(crate) fn median(v: &mut [f64]) -> f64 {
+/// when empty. The experiments' timing figures are medians of repeated runs, and so are the
+/// demo's.
+pub fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return 0.0;
     }

@@ -16,10 +16,11 @@ use slod_experiments::net::NetConfig;
 use slod_experiments::table::{Table, num};
 use treecut::NodeId;
 
-use super::ops::{OPERATIONS, median, time_cycles, unblended_body};
+use super::ops::{OPERATIONS, time_cycles, unblended_body};
 use super::scaling::fit;
 use crate::error::DemoError;
 use crate::progress::Progress;
+use slod_experiments::median;
 
 /// One operation at one size.
 #[derive(Clone, Debug, Serialize)]

@@ -11,6 +11,7 @@
 use std::time::Instant;
 
 use serde::Serialize;
+use slod_experiments::median;
 use slod_experiments::net::NetConfig;
 use softbody::{TreeCutSettings, TreeCutSoftBody};
 use treecut::{Cut, GridSpec, Hierarchy, NodeId};
@@ -94,12 +95,6 @@ pub(crate) fn time_cycles(
         }
     }
     Ok((times, counts))
-}
-
-/// Median of `t` (sorted in place); 0 when empty.
-pub(crate) fn median(t: &mut [f64]) -> f64 {
-    t.sort_by(f64::total_cmp);
-    t.get(t.len() / 2).copied().unwrap_or(0.0)
 }
 
 /// Vertices per side of the measured net: 70² = 4,900 nodes, the paper's N.

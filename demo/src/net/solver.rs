@@ -17,9 +17,9 @@ use serde::Serialize;
 use softbody::treecut::{Cut, GridSpec, Hierarchy, NodeId};
 use softbody::{GridCloth, SoftBody, SolverSettings, TreeCutSettings, TreeCutSoftBody};
 
+use slod_experiments::median;
 use slod_experiments::table::{Table, num};
 
-use super::ops::median;
 use crate::error::DemoError;
 use crate::peer;
 
